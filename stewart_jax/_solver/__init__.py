@@ -1,0 +1,1 @@
+"""Calibration optimisers. Import them from ``stewart_jax``."""
