@@ -9,7 +9,23 @@ import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
-from ._geometry import (  # noqa: E402
+from ._calibration import (
+    ARCSEC as ARCSEC,
+    COMPONENTS as COMPONENTS,
+    UM as UM,
+    CalibrationData as CalibrationData,
+    CalibrationProblem as CalibrationProblem,
+    ControlError as ControlError,
+    calibration_cost as calibration_cost,
+    calibration_problem as calibration_problem,
+    control_error as control_error,
+    error_in_report_units as error_in_report_units,
+    feasible_box as feasible_box,
+    make_calibration_data as make_calibration_data,
+    stroke_residuals as stroke_residuals,
+    summarize_control_error as summarize_control_error,
+)
+from ._geometry import (
     PRESETS as PRESETS,
     Geometry as Geometry,
     actual_geometry as actual_geometry,
@@ -21,7 +37,8 @@ from ._geometry import (  # noqa: E402
     rod_lengths as rod_lengths,
     save_geometry as save_geometry,
 )
-from ._kinematics import (  # noqa: E402
+from ._io import read_csv as read_csv, write_csv as write_csv
+from ._kinematics import (
     FKSolution as FKSolution,
     IKSolution as IKSolution,
     euler_angles as euler_angles,
@@ -32,5 +49,22 @@ from ._kinematics import (  # noqa: E402
     solve_inverse_kinematics as solve_inverse_kinematics,
     upper_joints_in_base as upper_joints_in_base,
 )
+from ._simulation import (
+    PLANS as PLANS,
+    TRAVEL_MM as TRAVEL_MM,
+    TRAVEL_RAD as TRAVEL_RAD,
+    LaserTracker as LaserTracker,
+    SimulatedMeasurement as SimulatedMeasurement,
+    default_tracker as default_tracker,
+    plan_poses as plan_poses,
+    random_poses as random_poses,
+    rigid_fit as rigid_fit,
+    sampling_plan_120 as sampling_plan_120,
+    simulate_measurements as simulate_measurements,
+    tracker_measure as tracker_measure,
+    validation_poses as validation_poses,
+)
+from ._solver._result import OptimiseResult as OptimiseResult
+from ._solver.levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, lm_calibrate as lm_calibrate
 
 __version__ = "0.1.0"

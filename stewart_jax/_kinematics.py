@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from ._geometry import Geometry, rod_lengths
+from ._geometry import Geometry
 
 # Angles in the library are radians. A pose angle beyond this is taken as a unit mistake
 # (degrees given where radians are expected): no optics hexapod tilts by ~29°, and the Euler
@@ -221,7 +221,7 @@ def forward_kinematics(
     strokes: ArrayLike,
     initial_pose: ArrayLike | None = None,
     *,
-    tol: float = 1e-11,
+    tol: float = 1e-12,
     max_steps: int = 30,
     throw: bool = False,
 ) -> FKSolution:
@@ -232,7 +232,7 @@ def forward_kinematics(
     Per-pose convergence is reported in :class:`FKSolution`; with ``throw=True`` a
     non-converged pose raises instead (``equinox.error_if`` under jit).
 
-    ``tol`` (mm) is on ``max |IK(P) − q|``; float64 rounding of eq. 4 is ~1e-13 mm.
+    ``tol`` (mm) is on ``max |IK(P) − q|``; float64 rounding of eq. 4 is ~1e-15 mm.
     """
     q = check_array(strokes, "strokes", last_dim=6)
     p0 = jnp.zeros(6) if initial_pose is None else check_poses(initial_pose)

@@ -1,0 +1,35 @@
+# The two entry points of the README: `make demo` and `make test`. Each builds the virtual
+# environment from nothing on first use (pyproject.toml is the only list of dependencies).
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.stewart-jax-installed
+
+# Demo size: trials of the seed-000 study per method (a few minutes on 2 cores).
+DEMO_TRIALS ?= 10
+DEMO_METHODS ?= lm
+
+.PHONY: venv demo test lint bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/stewart-jax study --methods $(DEMO_METHODS) --trials $(DEMO_TRIALS)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check stewart_jax tests benchmarks
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/kinematics.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,199 @@
+"""The ``stewart-jax`` command line (SPEC §6)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+ALL_METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "nelder-mead")
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    import jax
+
+    from ._geometry import load_geometry
+    from ._io import write_csv
+    from ._simulation import default_tracker, plan_poses, simulate_measurements
+
+    nominal, true = load_geometry(args.nominal), load_geometry(args.true)
+    k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
+    targets = plan_poses(args.plan, k_plan)
+    tracker = default_tracker(sigma_um=args.tracker_sigma_um) if args.tracker else None
+    sim = simulate_measurements(k_noise, nominal, true, targets, args.sigma_um, args.sigma_arcsec, tracker)
+    if not bool(np.all(sim.converged)):
+        raise SystemExit("simulate: forward kinematics of the true mechanism failed at a target pose")
+    extra = {}
+    for prefix, poses in (("target", sim.targets), ("true", sim.true_poses)):
+        p = np.array(poses)
+        p[:, 3:] = np.degrees(p[:, 3:])
+        extra[",".join(f"{prefix}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz"))] = p
+    write_csv(args.out, sim.data, extra)
+    print(f"wrote {len(targets)} poses ({args.plan}, seed {args.seed}) to {args.out}", file=sys.stderr)
+    return 0
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    import jax
+
+    from ._calibration import calibration_problem
+    from ._geometry import geometry_from_params, load_geometry, save_geometry
+    from ._io import read_csv
+    from ._solver._result import STATUS_NAMES
+
+    data = read_csv(args.file)
+    nominal = load_geometry(args.geometry)
+    problem = calibration_problem(data, nominal, args.half_width)
+    options = {}
+    if args.max_evaluations is not None:
+        if args.method in ("lm", "lm-jaxopt"):
+            raise SystemExit("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
+        options["max_evaluations"] = args.max_evaluations
+    if args.max_steps is not None:
+        options["max_steps"] = args.max_steps
+    t0 = time.perf_counter()
+    if args.method == "lm" and "max_evaluations" not in options:
+        from ._solver.levenberg_marquardt import LevenbergMarquardt
+
+        result = jax.jit(LevenbergMarquardt(**options).run)(problem)
+    else:
+        from ._solver.calibrate import calibrate
+
+        result = calibrate(problem, args.method, jax.random.key(args.seed), **options)
+    result = jax.block_until_ready(result)
+    seconds = time.perf_counter() - t0
+    params = np.asarray(result.params)
+    m = data.n_poses
+    out = {
+        "method": args.method,
+        "params": params.tolist(),
+        "cost": float(result.cost),
+        "n_evaluations": int(result.n_evaluations),
+        "seconds": seconds,
+        "status": STATUS_NAMES[int(result.status)],
+        "n_poses": m,
+        "rms_residual_um": float(np.sqrt(float(result.cost) / (6 * m)) * 1e3),
+        "in_box": bool(np.all((params >= np.asarray(problem.lower)) & (params <= np.asarray(problem.upper)))),
+        "half_width_mm": args.half_width,
+        "seed": args.seed,
+    }
+    print(
+        f"{args.method}: S = {out['cost']:.6g} mm² (rms stroke residual {out['rms_residual_um']:.4g} µm) "
+        f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}",
+        file=sys.stderr,
+    )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+    if args.out_geometry:
+        save_geometry(geometry_from_params(params, nominal.v0), args.out_geometry)
+    if not args.json:
+        print(json.dumps(out))
+    return 0 if int(result.status) != 2 else 1
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from ._study import format_study_table, run_study
+
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = sorted(set(methods) - set(ALL_METHODS))
+    if unknown:
+        raise SystemExit(f"unknown method(s) {unknown}; choose from {ALL_METHODS}")
+    options = {}
+    if args.max_evaluations is not None:
+        options = {m: {"max_evaluations": args.max_evaluations} for m in methods if not m.startswith("lm")}
+    print(
+        f"seed-000 simulation study: plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
+        f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
+        file=sys.stderr,
+    )
+    result = run_study(
+        methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
+        args.half_width, options,
+    )
+    print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
+    print(format_study_table(result, "calibration"))
+    print("\nMax control error at 42 validation poses — median [90th percentile] over trials:\n")
+    print(format_study_table(result, "validation"))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(result, f, indent=2)
+    return 0
+
+
+def _noise_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
+    p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="stewart-jax", description="Stewart-platform kinematics, calibration and dynamics (JAX)."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("simulate", help="write simulated measured data (seed 000 study) as CSV")
+    p.add_argument("--out", required=True, help="output CSV (SPEC §6 columns, plus target_* and true_*)")
+    p.add_argument("--plan", choices=("paper8", "plan120", "validation42"), default="paper8")
+    p.add_argument("--seed", type=int, default=0)
+    _noise_args(p)
+    p.add_argument("--tracker", action="store_true", help="measure poses with the 3-ball laser tracker")
+    p.add_argument("--tracker-sigma-um", type=float, default=3.0, help="tracker σ per coordinate (µm)")
+    p.add_argument("--nominal", default="nominal", help="model geometry: preset or JSON/TOML file")
+    p.add_argument("--true", default="actual", help="true geometry: preset or JSON/TOML file")
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("calibrate", help="calibrate the 36 parameters from a measured CSV")
+    p.add_argument("file", help="measured data CSV (SPEC §6)")
+    p.add_argument("--method", choices=ALL_METHODS, default="lm")
+    p.add_argument("--seed", type=int, default=0, help="PRNG seed of the stochastic methods")
+    _noise_args(p)
+    p.add_argument("--json", help="write the result as JSON")
+    p.add_argument("--geometry", default="nominal", help="starting/nominal geometry: preset or file")
+    p.add_argument("--half-width", type=float, default=10.0, help="Ω = nominal ± this (mm)")
+    p.add_argument("--max-evaluations", type=int, help="objective-evaluation budget (metaheuristics)")
+    p.add_argument("--max-steps", type=int, help="iteration budget (LM)")
+    p.add_argument("--out-geometry", help="write the calibrated geometry as JSON")
+    p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("study", help="the seed-000 simulation study (Table 2) over many seeds")
+    p.add_argument("--methods", default="lm", help=f"comma-separated, from {ALL_METHODS}")
+    p.add_argument("--trials", type=int, default=10)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--plan", choices=("paper8", "plan120"), default="paper8")
+    _noise_args(p)
+    p.add_argument("--tracker", action="store_true")
+    p.add_argument("--half-width", type=float, default=10.0)
+    p.add_argument("--max-evaluations", type=int, help="evaluation budget of the metaheuristics")
+    p.add_argument("--json", help="write the full result as JSON")
+    p.set_defaults(func=_cmd_study)
+
+    try:
+        from .fast._cli import add_fast_parser
+    except ImportError:
+        pass
+    else:
+        add_fast_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    import stewart_jax  # noqa: F401  (enables float64)
+
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as e:
+        print(f"stewart-jax {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"stewart-jax {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,31 @@
+import json
+
+import numpy as np
+
+import stewart_jax as sj
+from stewart_jax._cli import main
+
+
+def test_simulate_then_calibrate(tmp_path):
+    csv = tmp_path / "m.csv"
+    assert main(["simulate", "--out", str(csv), "--seed", "4", "--sigma-um", "0", "--sigma-arcsec", "0"]) == 0
+    data = sj.read_csv(csv)
+    assert data.n_poses == 8
+    # Noise-free: the measured poses are the true poses, which the true model maps to the strokes.
+    np.testing.assert_allclose(sj.inverse_kinematics(sj.actual_geometry(), data.poses), data.strokes, atol=1e-9)
+    out = tmp_path / "c.json"
+    geo = tmp_path / "g.json"
+    assert main(["calibrate", str(csv), "--method", "lm", "--json", str(out), "--out-geometry", str(geo)]) == 0
+    res = json.loads(out.read_text())
+    for key in ("method", "params", "cost", "n_evaluations", "seconds"):
+        assert key in res
+    assert res["method"] == "lm" and len(res["params"]) == 36
+    assert res["cost"] < 1e-18
+    np.testing.assert_array_equal(sj.load_geometry(geo).params, res["params"])
+
+
+def test_cli_reports_bad_file(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("q1,q2\n1,2\n")
+    assert main(["calibrate", str(bad)]) == 2
+    assert "missing column" in capsys.readouterr().err
