@@ -172,12 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the full result as JSON")
     p.set_defaults(func=_cmd_study)
 
-    try:
-        from .fast._cli import add_fast_parser
-    except ImportError:
-        pass
-    else:
-        add_fast_parser(sub)
+    from .fast._cli import add_fast_parser
+
+    add_fast_parser(sub)
     return parser
 
 

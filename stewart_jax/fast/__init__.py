@@ -1,0 +1,74 @@
+"""FAST feed-support dynamics: elastic-catenary cables, a Stewart platform in the moving cabin,
+and their coupled time simulation (Yin, Jiang, Chen, Yao, *Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST*; seed 002; SPEC §5).
+
+SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_enable_x64``).
+
+- :mod:`._catenary` — eqs. 6–13: cable end point from force and unstretched length, and the
+  batched Newton inverse.
+- :mod:`._stewart` — eqs. 3–5, 14–53: platform geometry (Table 1), leg kinematics, inverse
+  dynamics in the moving frame.
+- :mod:`._system` — eqs. 1–2, 54–60: the whole model and the cabin's equations of motion.
+- :mod:`._statics` — the 24×24 initial equilibrium.
+- :mod:`._coupled` — the coupled time simulation (Fig. 5) inside ``lax.scan``.
+- :mod:`._scenario` — eqs. 61–66: the 5 Hz, 10 mm scenario, Table 2, Figs. 6–9.
+"""
+
+from ._catenary import (
+    CableParams as CableParams,
+    CatenarySolution as CatenarySolution,
+    catenary_jacobian as catenary_jacobian,
+    catenary_upper_end as catenary_upper_end,
+    peyrot_goulois_start as peyrot_goulois_start,
+    solve_catenary as solve_catenary,
+    straight_bar_start as straight_bar_start,
+)
+from ._coupled import (
+    CabinState as CabinState,
+    Trajectory as Trajectory,
+    matrix_to_quat as matrix_to_quat,
+    quat_to_matrix as quat_to_matrix,
+    simulate as simulate,
+)
+from ._scenario import (
+    PAPER_CORRELATION_CENTRE as PAPER_CORRELATION_CENTRE,
+    PAPER_POSITIONS as PAPER_POSITIONS,
+    PAPER_TABLE2 as PAPER_TABLE2,
+    ScenarioResult as ScenarioResult,
+    rotation_vector as rotation_vector,
+    run_scenario as run_scenario,
+    run_scenario_jit as run_scenario_jit,
+    sine_motion as sine_motion,
+    system_momentum as system_momentum,
+    table2_statistics as table2_statistics,
+)
+from ._statics import (
+    StaticSolution as StaticSolution,
+    static_equilibrium as static_equilibrium,
+    static_equilibrium_jit as static_equilibrium_jit,
+    static_residual as static_residual,
+    straight_cable_start as straight_cable_start,
+)
+from ._stewart import (
+    LegKinematics as LegKinematics,
+    LowerMotion as LowerMotion,
+    StewartForces as StewartForces,
+    StewartParams as StewartParams,
+    UpperMotion as UpperMotion,
+    leg_kinematics as leg_kinematics,
+    paper_stewart_params as paper_stewart_params,
+    stewart_inverse_dynamics as stewart_inverse_dynamics,
+    upper_platform_wrench as upper_platform_wrench,
+)
+from ._system import (
+    CabinDynamics as CabinDynamics,
+    FastParams as FastParams,
+    anchor_positions as anchor_positions,
+    cabin_accelerations as cabin_accelerations,
+    cabin_residual as cabin_residual,
+    cable_deltas as cable_deltas,
+    paper_fast_params as paper_fast_params,
+    static_lower_motion as static_lower_motion,
+    tower_positions as tower_positions,
+    upper_motion as upper_motion,
+)

@@ -1,0 +1,271 @@
+"""Elastic catenary cable of the FAST feed support (seed 002, §2, eqs. 6–13).
+
+Each cable hangs from its tower top (upper end) and holds a cabin anchor (lower end). In the
+cable's frame A (origin at the lower end, axes parallel to the global frame G) the
+unknowns are the force ``F = (Fx, Fy, Fz)`` that the cabin exerts on the cable at its lower
+end and the unstretched length ``s0``. Equilibrium of the piece of cable between the lower
+end and the material point ``s`` (eqs. 6–9) and Hooke's law (eq. 10) give the tangent
+
+    dr/ds = -(F + ρ g s e_z) / K(s) · (1 + K(s)/EA),   K(s) = |F + ρ g s e_z|,
+
+whose integral over ``s ∈ [0, s0]`` is the closed form of eqs. 11–13. ``g = -9.8 m/s²`` as
+Table 1 writes it (the weight of a length ``s`` of cable is ``ρ g s e_z``, downwards). The
+force the cable exerts on the cabin is ``-F``.
+
+- :func:`catenary_upper_end` — eqs. 11–13: ``(F, s0) ↦`` upper end relative to the lower end.
+- :func:`solve_catenary` — the inverse: both ends and ``s0`` given, ``F`` by a batched Newton
+  solve from the Peyrot–Goulois start (or a warm start), differentiated implicitly.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+
+class CableParams(eqx.Module):
+    """Material of one cable (seed 002, Table 1); SI units. A pytree of scalars.
+
+    - ``EA``: axial stiffness ``E·A`` (N), 1.243e8.
+    - ``rho``: unstretched linear density (kg/m), 13.898.
+    - ``g``: signed gravitational acceleration along ``+z`` (m/s²), ``-9.8`` as in Table 1.
+    """
+
+    EA: Float[Array, ""] = eqx.field(converter=lambda x: jnp.asarray(x, jnp.float64), default=1.243e8)
+    rho: Float[Array, ""] = eqx.field(converter=lambda x: jnp.asarray(x, jnp.float64), default=13.898)
+    g: Float[Array, ""] = eqx.field(converter=lambda x: jnp.asarray(x, jnp.float64), default=-9.8)
+
+
+class CatenarySolution(NamedTuple):
+    """Result of :func:`solve_catenary`; leading axes are the batch of cables.
+
+    - ``force``: ``Float[Array, "... 3"]``, lower-end force ``F`` on the cable (N, frame G).
+    - ``converged``: ``Bool[Array, "..."]``, Newton met the tolerance for this cable.
+    - ``steps``: ``Int[Array, ""]``, Newton iterations taken by the batch.
+    - ``residual``: ``Float[Array, "..."]``, ``|upper_end(F, s0) - delta|`` at the end (m).
+    """
+
+    force: Float[Array, "... 3"]
+    converged: Bool[Array, "..."]
+    steps: Int[Array, ""]
+    residual: Float[Array, "..."]
+
+
+def _asinh_difference(a: Array, b: Array, h: Array) -> Array:
+    # arcsinh(a/h) - arcsinh(b/h); the library arcsinh is accurate for negative arguments,
+    # where the textbook log(x + sqrt(x² + 1)) cancels catastrophically (here Fz < 0).
+    return jnp.arcsinh(a / h) - jnp.arcsinh(b / h)
+
+
+def catenary_upper_end(
+    cable: CableParams, force: Float[Array, "... 3"], s0: Float[Array, "..."]
+) -> Float[Array, "... 3"]:
+    """Position of the upper end relative to the lower end, eqs. 11–13.
+
+    **Arguments:**
+
+    - ``cable``: :class:`CableParams`.
+    - ``force``: ``Float[Array, "... 3"]``, lower-end force ``F`` on the cable (N).
+    - ``s0``: ``Float[Array, "..."]``, unstretched length (m), broadcast against ``force[..., 0]``.
+
+    **Returns:** ``Float[Array, "... 3"]``, ``(AX, AY, AZ)`` in metres.
+    """
+    fx, fy, fz = force[..., 0], force[..., 1], force[..., 2]
+    s0 = jnp.asarray(s0, force.dtype)
+    EA, rho_g = cable.EA, cable.rho * cable.g
+    top = fz + rho_g * s0
+    h2 = fx**2 + fy**2
+    # NOTE: H = sqrt(Fx² + Fy²) → 0 (a vertical cable) makes arcsinh(·/H) → ±∞ while the
+    # factor Fx/(ρg) → 0; the product tends to 0 like H·log(1/H). Where H is below 1e-300 N
+    # the term is replaced by its limit 0, and the division uses a safe H so that neither
+    # branch produces NaN under differentiation (the double-`where` pattern).
+    vertical = h2 < 1e-300
+    h = jnp.sqrt(jnp.where(vertical, 1.0, h2))
+    d_asinh = jnp.where(vertical, 0.0, _asinh_difference(top, fz, h))
+    x = -fx / EA * s0 - fx / rho_g * d_asinh  # eq. 11
+    y = -fy / EA * s0 - fy / rho_g * d_asinh  # eq. 12
+    k_top = jnp.sqrt(h2 + top**2)
+    k_bottom = jnp.sqrt(h2 + fz**2)
+    z = -fz / EA * s0 - rho_g / (2.0 * EA) * s0**2 - (k_top - k_bottom) / rho_g  # eq. 13
+    return jnp.stack([x, y, z], axis=-1)
+
+
+def catenary_jacobian(
+    cable: CableParams, force: Float[Array, "... 3"], s0: Float[Array, "..."]
+) -> tuple[Float[Array, "... 3"], Float[Array, "... 3 3"]]:
+    """Upper end (eqs. 11–13) and its Jacobian ``∂(AX, AY, AZ)/∂F`` per cable.
+
+    **Returns:** ``(end, J)`` with ``end``: ``Float[Array, "... 3"]`` and ``J``:
+    ``Float[Array, "... 3 3"]`` (``J[..., i, k] = ∂end_i/∂F_k``).
+    """
+
+    def f(F):
+        return catenary_upper_end(cable, F, s0)
+
+    # The map is cable-wise: one forward-mode pass per force component gives every
+    # cable's 3×3 block at once (no batch×batch Jacobian is formed).
+    eye = jnp.eye(3, dtype=force.dtype)
+    end, cols = jax.vmap(lambda e: jax.jvp(f, (force,), (jnp.broadcast_to(e, force.shape),)),
+                         out_axes=(None, -1))(eye)
+    return end, cols
+
+
+def _solve3(J: Float[Array, "... 3 3"], r: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
+    """``J⁻¹ r`` for a batch of 3×3 systems by the adjugate (elementwise, fusable)."""
+    a, b, c = J[..., 0, 0], J[..., 0, 1], J[..., 0, 2]
+    d, e, f = J[..., 1, 0], J[..., 1, 1], J[..., 1, 2]
+    g, h, i = J[..., 2, 0], J[..., 2, 1], J[..., 2, 2]
+    A, B, C = e * i - f * h, -(d * i - f * g), d * h - e * g
+    det = a * A + b * B + c * C
+    adj = jnp.stack(
+        [
+            jnp.stack([A, -(b * i - c * h), b * f - c * e], -1),
+            jnp.stack([B, a * i - c * g, -(a * f - c * d)], -1),
+            jnp.stack([C, -(a * h - b * g), a * e - b * d], -1),
+        ],
+        -2,
+    )
+    return jnp.sum(adj * r[..., None, :], axis=-1) / det[..., None]
+
+
+def peyrot_goulois_start(
+    cable: CableParams, delta: Float[Array, "... 3"], s0: Float[Array, "..."]
+) -> Float[Array, "... 3"]:
+    """Initial guess of the lower-end force from Peyrot & Goulois (1979), as in mooring codes
+    (e.g. MAP++, MoorPy).
+
+    With horizontal span ``l``, rise ``z`` and weight per length ``w = ρ|g|``: ``λ0 =
+    sqrt(3((s0² - z²)/l² - 1))`` (0.2 when the cable is taut, ``s0² ≤ l² + z²``; 1e6 for a
+    vertical span), upper-end horizontal force ``w·l/(2λ0)``, upper-end vertical force
+    ``w/2·(z·coth λ0 + s0)``. Converted to the force at the lower end:
+    ``F_h = -H·(horizontal chord direction)``, ``Fz = w·s0 - V_top``.
+    """
+    w = cable.rho * jnp.abs(cable.g)
+    l2 = delta[..., 0] ** 2 + delta[..., 1] ** 2
+    span = jnp.sqrt(jnp.where(l2 > 0, l2, 1.0))
+    z = delta[..., 2]
+    taut = s0**2 <= l2 + z**2
+    lam = jnp.where(
+        l2 > 0,
+        jnp.where(taut, 0.2, jnp.sqrt(3.0 * jnp.maximum((s0**2 - z**2) / span**2 - 1.0, 1e-12))),
+        1e6,
+    )
+    h_top = jnp.maximum(jnp.abs(0.5 * w * jnp.where(l2 > 0, span, 0.0) / lam), 1e-6 * w * s0)
+    v_top = 0.5 * w * (z / jnp.tanh(lam) + s0)
+    u = jnp.where(l2[..., None] > 0, delta[..., :2] / span[..., None], 0.0)
+    return jnp.concatenate([-h_top[..., None] * u, (w * s0 - v_top)[..., None]], axis=-1)
+
+
+def straight_bar_start(
+    cable: CableParams, delta: Float[Array, "... 3"], s0: Float[Array, "..."]
+) -> Float[Array, "... 3"]:
+    """Naive initial guess: a weightless elastic bar along the chord, ``T = EA(|δ|/s0 - 1)``
+    (floored at 1 N). Kept for comparison: Newton from it diverges for slack cables."""
+    chord = jnp.linalg.norm(delta, axis=-1)
+    tension = jnp.maximum(cable.EA * (chord / s0 - 1.0), 1.0)
+    return -tension[..., None] * delta / chord[..., None]
+
+
+def _newton(cable, delta, s0, force0, tol, max_steps):
+    scale = jnp.maximum(jnp.linalg.norm(delta, axis=-1), 1.0)
+
+    def residual_norm(F):
+        return jnp.linalg.norm(catenary_upper_end(cable, F, s0) - delta, axis=-1)
+
+    def cond(carry):
+        F, res, step = carry
+        return (step < max_steps) & jnp.any(~(res <= tol * scale))
+
+    def body(carry):
+        F, res, step = carry
+        end, J = catenary_jacobian(cable, F, s0)
+        dF = _solve3(J, end - delta)
+        # Converged cables are frozen so that a batch finishes together without
+        # perturbing solutions that already meet the tolerance.
+        done = res <= tol * scale
+        F_new = jnp.where(done[..., None], F, F - dF)
+        return F_new, residual_norm(F_new), step + 1
+
+    res0 = residual_norm(force0)
+    F, res, steps = jax.lax.while_loop(cond, body, (force0, res0, jnp.asarray(0)))
+    return F, res, steps, res <= tol * scale
+
+
+def solve_catenary(
+    cable: CableParams,
+    delta: Float[Array, "... 3"],
+    s0: Float[Array, "..."],
+    force0: Float[Array, "... 3"] | None = None,
+    *,
+    tol: float = 1e-13,
+    max_steps: int = 50,
+) -> CatenarySolution:
+    """Lower-end force ``F`` with ``catenary_upper_end(F, s0) = delta`` (inverse of eqs. 11–13).
+
+    Newton's method on the three force components of every cable at once (3×3 Jacobians by
+    forward mode, solved in closed form), stopping when every cable's end-point error is
+    below ``tol·max(|delta|, 1 m)`` or after ``max_steps``.
+
+    Derivatives (``jax.grad``/``jacfwd`` with respect to ``delta``, ``s0`` or ``cable``) use the
+    implicit-function theorem via ``jax.lax.custom_root``: ``dF = -J⁻¹ ∂end/∂(δ, s0, ...)``;
+    the Newton iterations are never unrolled.
+
+    **Arguments:**
+
+    - ``cable``: :class:`CableParams`.
+    - ``delta``: ``Float[Array, "... 3"]``, upper end minus lower end (eq. 1), metres.
+    - ``s0``: ``Float[Array, "..."]``, unstretched lengths (m).
+    - ``force0``: ``Float[Array, "... 3"]`` or ``None``: warm start (e.g. the previous time
+      step); ``None`` uses :func:`peyrot_goulois_start`.
+    - ``tol``: relative end-point tolerance.
+    - ``max_steps``: Newton iteration budget.
+
+    **Returns:** :class:`CatenarySolution`; a cable that did not converge has
+    ``converged = False`` (its ``force`` is the last iterate, not NaN-masked).
+    """
+    if not isinstance(delta, jax.core.Tracer) and not isinstance(s0, jax.core.Tracer):
+        check_cable_inputs(delta, s0)
+    delta = jnp.asarray(delta, jnp.float64)
+    s0 = jnp.broadcast_to(jnp.asarray(s0, jnp.float64), delta.shape[:-1])
+    if force0 is None:
+        force0 = peyrot_goulois_start(cable, delta, s0)
+    force0 = jnp.broadcast_to(jnp.asarray(force0, jnp.float64), delta.shape)
+
+    def f(F):
+        return catenary_upper_end(cable, F, s0) - delta
+
+    def solve(_f, x0):
+        F, res, steps, ok = _newton(cable, delta, s0, x0, tol, max_steps)
+        # NOTE: custom_root's JVP rule mishandles integer/bool auxiliary outputs (it gives
+        # them same-dtype tangents instead of float0), so they travel as floats.
+        return F, (ok.astype(F.dtype), steps.astype(F.dtype), res)
+
+    def tangent_solve(g, y):
+        # g is the linearisation of f at the root: cable-wise (block diagonal), so its
+        # 3×3 blocks are its images of the three broadcast unit vectors.
+        eye = jnp.eye(3, dtype=y.dtype)
+        J = jnp.stack([g(jnp.broadcast_to(e, y.shape)) for e in eye], axis=-1)
+        return _solve3(J, y)
+
+    F, (ok, steps, res) = jax.lax.custom_root(
+        f, jax.lax.stop_gradient(force0), solve, tangent_solve, has_aux=True
+    )
+    aux = jax.lax.stop_gradient((ok, steps, res))
+    return CatenarySolution(F, aux[0] > 0.5, aux[1].astype(jnp.int32), aux[2])
+
+
+def check_cable_inputs(delta: ArrayLike, s0: ArrayLike) -> None:
+    """Raise ``ValueError`` on wrong shapes or non-finite values (called before tracing)."""
+    d = np.asarray(delta, dtype=np.float64)
+    s = np.asarray(s0, dtype=np.float64)
+    if d.ndim < 1 or d.shape[-1] != 3:
+        raise ValueError(f"delta must have a last axis of 3, got shape {d.shape}")
+    if not (np.all(np.isfinite(d)) and np.all(np.isfinite(s))):
+        raise ValueError("delta and s0 must be finite")
+    if np.any(s <= 0):
+        raise ValueError("unstretched lengths s0 must be positive")

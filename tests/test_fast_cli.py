@@ -1,0 +1,33 @@
+"""Argument handling of ``stewart-jax fast`` (the scenario itself is tested in
+test_fast_coupled.py; running it here would compile it again)."""
+
+import argparse
+
+import pytest
+
+from stewart_jax.fast._cli import add_fast_parser
+
+
+def _parser():
+    ap = argparse.ArgumentParser(prog="stewart-jax")
+    add_fast_parser(ap.add_subparsers(dest="command"))
+    return ap
+
+
+def test_defaults_and_position():
+    args = _parser().parse_args(["fast", "--position", "30,0,142.8", "--json", "out.json"])
+    assert args.position == (30.0, 0.0, 142.8)
+    assert args.json == "out.json" and args.duration == 2.0 and args.dt == 1e-3
+    assert args.start == "momentum" and args.method == "verlet" and callable(args.func)
+
+
+@pytest.mark.parametrize("bad", ["1,2", "a,b,c", "1,2,nan", "1,2,3,4"])
+def test_bad_position_is_rejected(bad, capsys):
+    with pytest.raises(SystemExit):
+        _parser().parse_args(["fast", "--position", bad])
+    assert "--position" in capsys.readouterr().err
+
+
+def test_bad_step_is_rejected():
+    args = _parser().parse_args(["fast", "--dt", "0", "--duration", "1"])
+    assert args.func(args) == 2
