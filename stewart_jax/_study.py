@@ -6,10 +6,18 @@ calibrate with each method from the nominal parameters, and evaluate the control
 (command with the calibrated model, move the true mechanism) at the calibration poses and at
 42 fresh validation poses. Report per component the median and 90th percentile over trials of
 the maximum absolute error — the paper's Table 2 reports one run's maximum.
+
+Every trial's randomness comes from its own key, ``jax.random.split(key(seed), n_trials)[i]``,
+so a trial's result does not depend on how the trials are chunked, sharded over devices or
+resumed. Long runs go in chunks, report progress, and can write a checkpoint after every
+chunk: an interrupted run restarted with the same checkpoint continues where it stopped.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -19,13 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._calibration import (
-    COMPONENTS,
-    CalibrationProblem,
-    calibration_problem,
-    control_error,
-    error_in_report_units,
-)
+from ._calibration import COMPONENTS, CalibrationProblem, calibration_problem, control_error, error_in_report_units
 from ._geometry import Geometry, actual_geometry, geometry_from_params, nominal_geometry
 from ._simulation import default_tracker, random_poses, sampling_plan_120, simulate_measurements
 
@@ -47,22 +49,35 @@ METHOD_LABELS = {
     "nelder-mead": "Nelder-Mead (bounded)",
 }
 
+BEFORE = "before"
+"""Pseudo-method: the nominal parameters, uncalibrated."""
+
 
 def _batch_calibrator(method: str, options: dict[str, Any]) -> Callable:
-    """A jitted ``(problems, keys) -> OptimiseResult`` vmapped over the trial axis."""
-    if method == "lm":
-        from ._solver.levenberg_marquardt import LevenbergMarquardt
+    """``(problems, keys) -> OptimiseResult`` vmapped over the trial axis, compiled once."""
+    if method == BEFORE:
 
-        solver = LevenbergMarquardt(**options)
-        return jax.jit(jax.vmap(lambda p, k: solver.run(p)))
+        def before(problems, keys):
+            from ._solver._result import OptimiseResult
+
+            n = keys.shape[0]
+            cost = jax.vmap(lambda p: p.cost(p.initial))(problems)
+            zeros = jnp.zeros((n, 1), jnp.int32)
+            return OptimiseResult(problems.initial, cost, zeros[:, 0], zeros[:, 0], cost[:, None], zeros)
+
+        return before
     from ._solver.calibrate import calibrate_batch
 
     return lambda problems, keys: calibrate_batch(problems, method, keys, **options)
 
 
+def trial_keys(seed: int, n_trials: int) -> jax.Array:
+    """One key per trial; trial ``i`` is the same whatever ``n_trials`` (≥ i) is."""
+    return jax.vmap(lambda i: jax.random.fold_in(jax.random.key(seed), i))(jnp.arange(n_trials))
+
+
 def simulate_trials(
-    key: jax.Array,
-    n_trials: int,
+    keys: jax.Array,
     nominal: Geometry,
     actual: Geometry,
     plan: str = "paper8",
@@ -71,25 +86,24 @@ def simulate_trials(
     tracker: bool = False,
     half_width: float = 10.0,
 ) -> tuple[CalibrationProblem, jax.Array, jax.Array, jax.Array]:
-    """``n_trials`` independent simulated calibrations. Returns the batched problems, the
-    calibration targets ``(trials, m, 6)``, validation targets ``(trials, 42, 6)`` and the
-    per-trial keys for stochastic optimisers."""
-    k_targets, k_noise, k_val, k_opt = jax.random.split(key, 4)
-    if plan == "paper8":
-        targets = jax.vmap(lambda k: random_poses(k, 8))(jax.random.split(k_targets, n_trials))
-    elif plan == "plan120":
-        targets = jnp.broadcast_to(sampling_plan_120(), (n_trials, 120, 6))
-    else:
+    """Independent simulated calibrations, one per key. Returns the batched problems, the
+    calibration targets ``(trials, m, 6)``, validation targets ``(trials, 42, 6)`` and one
+    key per trial for stochastic optimisers."""
+    if plan not in ("paper8", "plan120"):
         raise ValueError(f"the study runs plan 'paper8' or 'plan120', got {plan!r}")
     trk = default_tracker() if tracker else None
-    sims = jax.vmap(
-        lambda k, t: simulate_measurements(k, nominal, actual, t, sigma_um, sigma_arcsec, trk)
-    )(jax.random.split(k_noise, n_trials), targets)
+
+    def one(key):
+        k_targets, k_noise, k_val, k_opt = jax.random.split(key, 4)
+        targets = random_poses(k_targets, 8) if plan == "paper8" else sampling_plan_120()
+        sim = simulate_measurements(k_noise, nominal, actual, targets, sigma_um, sigma_arcsec, trk)
+        return sim, targets, random_poses(k_val, 42), k_opt
+
+    sims, targets, validation, opt_keys = jax.jit(jax.vmap(one))(keys)
     if not bool(jnp.all(sims.converged)):
         raise RuntimeError("forward kinematics of the true mechanism failed for a target pose")
     problems = jax.vmap(lambda d: calibration_problem(d, nominal, half_width))(sims.data)
-    validation = jax.vmap(lambda k: random_poses(k, 42))(jax.random.split(k_val, n_trials))
-    return problems, targets, validation, jax.random.split(k_opt, n_trials)
+    return problems, targets, validation, opt_keys
 
 
 @jax.jit
@@ -106,6 +120,68 @@ def _max_errors(params, actual, targets, validation):
     return jax.vmap(one)(params, targets, validation)
 
 
+def _shard(tree, n_devices: int):
+    """Place every array's leading (trial) axis across the first ``n_devices`` devices."""
+    if n_devices <= 1:
+        return tree
+    mesh = jax.sharding.Mesh(np.array(jax.devices()[:n_devices]), ("trials",))
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("trials"))
+    return jax.device_put(tree, sharding)
+
+
+def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
+    """One chunk of trials for one method → per-trial numbers (NumPy, JSON-ready)."""
+    n = keys.shape[0]
+    pad = (-n) % max(n_devices, 1)
+    if pad:
+        keys = jnp.concatenate([keys, jnp.repeat(keys[-1:], pad, axis=0)])
+    problems, targets, validation, opt_keys = simulate_trials(
+        keys, nominal, actual, config["plan"], config["sigma_um"], config["sigma_arcsec"],
+        config["tracker"], config["half_width_mm"],
+    )
+    problems, targets, validation, opt_keys = _shard((problems, targets, validation, opt_keys), n_devices)
+    t0 = time.perf_counter()
+    res = jax.block_until_ready(calibrate(problems, opt_keys))
+    seconds = time.perf_counter() - t0
+    cal, val, ok = (np.asarray(x)[:n] for x in _max_errors(res.params, actual, targets, validation))
+    return {
+        "calibration": error_in_report_units(cal).tolist(),
+        "validation": error_in_report_units(val).tolist(),
+        "fk_ok": ok.tolist(),
+        "cost": np.asarray(res.cost)[:n].tolist(),
+        "n_evaluations": np.asarray(res.n_evaluations)[:n].tolist(),
+        "status": np.asarray(res.status)[:n].tolist(),
+        "history_cost": np.asarray(res.history_cost)[:n].tolist(),
+        "history_evaluations": np.asarray(res.history_evaluations)[:n].tolist(),
+        "seconds": seconds,
+    }
+
+
+def _config_hash(config: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _load_checkpoint(path: str | None, config: dict[str, Any]) -> dict[str, Any]:
+    if path is None or not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        ck = json.load(f)
+    if ck.get("config_hash") != _config_hash(config):
+        raise ValueError(
+            f"checkpoint {path} was written by a run with other settings; delete it or use another path"
+        )
+    return ck["chunks"]
+
+
+def _save_checkpoint(path: str | None, config: dict[str, Any], chunks: dict[str, Any]) -> None:
+    if path is None:
+        return
+    tmp = f"{path}.partial"
+    with open(tmp, "w") as f:
+        json.dump({"config_hash": _config_hash(config), "config": config, "chunks": chunks}, f)
+    os.replace(tmp, path)
+
+
 def run_study(
     methods: Sequence[str] = ("lm",),
     n_trials: int = 5,
@@ -116,81 +192,94 @@ def run_study(
     tracker: bool = False,
     half_width: float = 10.0,
     method_options: dict[str, dict[str, Any]] | None = None,
+    chunk_size: int | None = None,
+    checkpoint: str | None = None,
+    n_devices: int = 1,
+    keep_trials: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Run the Monte Carlo study; returns a JSON-ready dict (errors in µm and ″).
 
     ``result["rows"][label]`` holds, for the calibration poses (``"calibration"``) and the
-    validation poses (``"validation"``), the per-trial max errors and their median and 90th
-    percentile, plus the method's cost, evaluation count, status and wall time.
+    validation poses (``"validation"``), the median and 90th percentile over trials of the
+    per-trial max error (and the per-trial values with ``keep_trials``), plus the method's
+    cost, evaluation count, status counts, wall time and median convergence history.
+
+    ``chunk_size`` trials are computed at a time (default: all at once); with ``checkpoint``
+    the finished chunks are saved after each one and skipped when the run is repeated.
+    ``n_devices > 1`` shards each chunk's trial axis over that many JAX devices.
     """
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    if n_devices > len(jax.devices()):
+        raise ValueError(f"n_devices={n_devices} but JAX sees {len(jax.devices())} device(s)")
     nominal, actual = nominal_geometry(), actual_geometry()
-    problems, targets, validation, keys = simulate_trials(
-        jax.random.key(seed), n_trials, nominal, actual, plan, sigma_um, sigma_arcsec, tracker,
-        half_width,
-    )
-    rows: dict[str, Any] = {}
-    nominal_params = jnp.broadcast_to(nominal.params, (n_trials, 36))
-    rows["Before calibration"] = _row(_max_errors(nominal_params, actual, targets, validation))
-    for method in methods:
-        opts = (method_options or {}).get(method, {})
-        calibrate = _batch_calibrator(method, opts)
-        t0 = time.perf_counter()
-        res = jax.block_until_ready(calibrate(problems, keys))
-        seconds = time.perf_counter() - t0
-        row = _row(_max_errors(res.params, actual, targets, validation))
-        row.update(
-            method=method,
-            options=opts,
-            cost_median=float(np.median(res.cost)),
-            n_evaluations_median=float(np.median(res.n_evaluations)),
-            status_counts={int(s): int(c) for s, c in zip(*np.unique(res.status, return_counts=True), strict=True)},
-            seconds_total_including_compile=seconds,
-        )
-        rows[METHOD_LABELS.get(method, method)] = row
-        log(f"  {method}: {n_trials} trials in {seconds:.1f} s (incl. compile), "
-            f"median S = {row['cost_median']:.3g} mm²")
-    return {
-        "plan": plan,
-        "n_trials": n_trials,
-        "seed": seed,
-        "sigma_um": sigma_um,
-        "sigma_arcsec": sigma_arcsec,
-        "tracker": tracker,
-        "half_width_mm": half_width,
-        "components": list(COMPONENTS),
-        "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
-        "rows": rows,
-        "paper_table2": PAPER_TABLE2,
+    options = method_options or {}
+    config = {
+        "plan": plan, "n_trials": n_trials, "seed": seed, "sigma_um": sigma_um,
+        "sigma_arcsec": sigma_arcsec, "tracker": tracker, "half_width_mm": half_width,
+        "method_options": options,
     }
+    chunk = chunk_size or n_trials
+    keys = trial_keys(seed, n_trials)
+    chunks = _load_checkpoint(checkpoint, config)
+    rows: dict[str, Any] = {}
+    for method in [BEFORE, *methods]:
+        calibrate = _batch_calibrator(method, options.get(method, {}))
+        done = chunks.setdefault(method, {})
+        for start in range(0, n_trials, chunk):
+            if str(start) in done:
+                continue
+            stop = min(start + chunk, n_trials)
+            done[str(start)] = _run_chunk(method, calibrate, keys[start:stop], nominal, actual, config, n_devices)
+            _save_checkpoint(checkpoint, config, chunks)
+            if method != BEFORE:
+                log(f"  {method}: trials {stop}/{n_trials} ({done[str(start)]['seconds']:.1f} s for this chunk)")
+        parts = [done[str(s)] for s in range(0, n_trials, chunk)]
+        merged = {k: sum((p[k] for p in parts), []) for k in parts[0] if k != "seconds"}
+        label = "Before calibration" if method == BEFORE else METHOD_LABELS.get(method, method)
+        rows[label] = _row(method, options.get(method, {}), merged, [p["seconds"] for p in parts], keep_trials)
+    return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
+            "n_devices": n_devices, "rows": rows, "paper_table2": PAPER_TABLE2}
 
 
-def _row(max_errors) -> dict[str, Any]:
-    cal, val, ok = (np.asarray(x) for x in max_errors)
-    cal, val = error_in_report_units(cal), error_in_report_units(val)
-    out: dict[str, Any] = {"fk_failures": int(np.sum(~ok))}
-    for name, e in (("calibration", cal), ("validation", val)):
-        out[name] = {
-            "per_trial_max": e.tolist(),
-            "median": np.median(e, axis=0).tolist(),
-            "p90": np.percentile(e, 90, axis=0).tolist(),
-        }
+def _row(method, options, merged, seconds, keep_trials) -> dict[str, Any]:
+    out: dict[str, Any] = {"method": method, "options": options,
+                           "fk_failures": int(np.sum(~np.asarray(merged["fk_ok"])))}
+    for name in ("calibration", "validation"):
+        e = np.asarray(merged[name])
+        out[name] = {"median": np.median(e, axis=0).tolist(), "p90": np.percentile(e, 90, axis=0).tolist()}
+        if keep_trials:
+            out[name]["per_trial_max"] = e.tolist()
+    status, counts = np.unique(np.asarray(merged["status"]), return_counts=True)
+    hist_c, hist_n = np.asarray(merged["history_cost"]), np.asarray(merged["history_evaluations"])
+    out.update(
+        cost_median=float(np.median(merged["cost"])),
+        cost_p90=float(np.percentile(merged["cost"], 90)),
+        n_evaluations_median=float(np.median(merged["n_evaluations"])),
+        status_counts={int(s): int(c) for s, c in zip(status, counts, strict=True)},
+        seconds_per_chunk_including_compile=seconds,
+        history={
+            "evaluations_median": np.median(hist_n, axis=0).tolist(),
+            "cost_median": np.median(hist_c, axis=0).tolist(),
+            "cost_p10": np.percentile(hist_c, 10, axis=0).tolist(),
+            "cost_p90": np.percentile(hist_c, 90, axis=0).tolist(),
+        },
+    )
     return out
 
 
 def format_study_table(result: dict[str, Any], where: str = "calibration") -> str:
     """Markdown table: median [90th percentile] over trials of the max control error."""
+    units = {"um": "µm", "arcsec": "″"}
     head = "| method | " + " | ".join(
-        f"{c} ({u.replace('um', 'µm').replace('arcsec', '″')})"
-        for c, u in zip(result["components"], result["units"], strict=True)
-    ) + " |"
-    lines = [head, "|" + "---|" * 7]
+        f"{c} ({units[u]})" for c, u in zip(result["components"], result["units"], strict=True)
+    ) + " | median S (mm²) | median evaluations |"
+    lines = [head, "|" + "---|" * 9]
     for label, row in result["rows"].items():
         med, p90 = row[where]["median"], row[where]["p90"]
         cells = " | ".join(f"{m:.3g} [{p:.3g}]" for m, p in zip(med, p90, strict=True))
-        lines.append(f"| {label} | {cells} |")
+        lines.append(f"| {label} | {cells} | {row['cost_median']:.3g} | {row['n_evaluations_median']:.0f} |")
     if where == "calibration" and result["plan"] == "paper8":
         for label, vals in result["paper_table2"].items():
-            lines.append(f"| paper: {label} | " + " | ".join(f"{v:g}" for v in vals) + " |")
+            lines.append(f"| paper: {label} | " + " | ".join(f"{v:g}" for v in vals) + " | | |")
     return "\n".join(lines)
