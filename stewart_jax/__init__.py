@@ -64,7 +64,32 @@ from ._simulation import (
     tracker_measure as tracker_measure,
     validation_poses as validation_poses,
 )
-from ._solver._result import OptimiseResult as OptimiseResult
-from ._solver.levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, lm_calibrate as lm_calibrate
+from ._solver import (
+    MAX_STEPS as MAX_STEPS,
+    METHODS as METHODS,
+    NONFINITE as NONFINITE,
+    SMCS as SMCS,
+    STATUS_NAMES as STATUS_NAMES,
+    SUCCESS as SUCCESS,
+    VSASMCS as VSASMCS,
+    AbstractSolver as AbstractSolver,
+    CuckooSearch as CuckooSearch,
+    JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt,
+    LevenbergMarquardt as LevenbergMarquardt,
+    NelderMead as NelderMead,
+    OptimiseResult as OptimiseResult,
+    PopulationState as PopulationState,
+    SimplexCoefficients as SimplexCoefficients,
+    VSASMCSThenLM as VSASMCSThenLM,
+    calibrate as calibrate,
+    calibrate_batch as calibrate_batch,
+    hill_tail_index as hill_tail_index,
+    lm_calibrate as lm_calibrate,
+    make_solver as make_solver,
+    mantegna_sigma as mantegna_sigma,
+    mantegna_step as mantegna_step,
+    minimise as minimise,
+    simplex_on_worst as simplex_on_worst,
+)
 
 __version__ = "0.1.0"

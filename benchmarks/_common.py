@@ -1,0 +1,55 @@
+"""Shared pieces of the benchmark scripts: machine description and result files."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import shlex
+import sys
+
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+
+
+def machine_info() -> dict:
+    """Machine, versions, the command that ran, and the date (UTC)."""
+    import jax
+    import jaxlib
+    import numpy as np
+
+    try:
+        load = os.getloadavg()[0]
+    except OSError:
+        load = None
+    return {
+        "command": " ".join(shlex.quote(a) for a in [os.path.relpath(sys.executable), *sys.argv]),
+        "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M:%S"),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "load_average_1min": load,
+        "python": platform.python_version(),
+        "jax": jax.__version__,
+        "jaxlib": jaxlib.__version__,
+        "numpy": np.__version__,
+        "backend": jax.default_backend(),
+        "devices": [str(d) for d in jax.devices()],
+    }
+
+
+def write_results(name: str, payload: dict, markdown: str) -> None:
+    """``results/NAME.json`` (payload + machine info) and ``results/NAME.md``."""
+    os.makedirs(RESULTS, exist_ok=True)
+    info = machine_info()
+    with open(os.path.join(RESULTS, f"{name}.json"), "w") as f:
+        json.dump({"machine": info, **payload}, f, indent=1)
+        f.write("\n")
+    header = (
+        f"Command: `{info['command']}`  \n"
+        f"Machine: {info['platform']}, {info['cpu_count']} CPUs ({info['processor']}), backend "
+        f"{info['backend']}, load average {info['load_average_1min']}; python {info['python']}, "
+        f"jax {info['jax']}, numpy {info['numpy']}; {info['date_utc']} UTC\n\n"
+    )
+    with open(os.path.join(RESULTS, f"{name}.md"), "w") as f:
+        f.write(header + markdown.rstrip() + "\n")

@@ -1,0 +1,223 @@
+"""One driver for every iterative optimiser: ``init``/``step``/``terminate`` in ``lax.scan``.
+
+The design follows optimistix (an immutable solver object holding hyper-parameters only,
+a separate state pytree, ``init``/``step``/``terminate``) and evosax (population steps
+vmapped over nests, a fixed generation budget in ``lax.scan``). The scan length is fixed
+by the evaluation budget, so that a batch of trials compiles once; once a trial has
+terminated (``S(u_best) < ε``) or the next step could overrun the budget, its state is
+frozen (``lax.cond``; under ``vmap`` JAX evaluates both branches and selects, so a frozen
+trial still costs time but its state, history and evaluation count stay put).
+
+Evaluation counting: ``n_evals`` counts every objective call that the jitted code of one
+trial makes, including calls whose value a branch-free (vmapped) step computes and then
+discards. A sequential implementation of the same algorithm could make fewer.
+
+The objective is any ``fn(x) -> scalar``; NaN values are read as +inf before any
+comparison (:func:`nan_to_inf`), so that a failed evaluation can never become the best.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import math
+from typing import Any, NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
+
+from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
+
+
+def nan_to_inf(fn):
+    """``fn`` with NaN values replaced by +inf (and the value cast to a scalar array)."""
+
+    def wrapped(x):
+        f = jnp.asarray(fn(x))
+        return jnp.where(jnp.isnan(f), jnp.inf, f)
+
+    return wrapped
+
+
+def evaluate(fn, xs: Float[Array, "n d"]) -> Float[Array, " n"]:
+    """``fn`` over a population, vmapped; NaN → +inf."""
+    return jax.vmap(nan_to_inf(fn))(xs)
+
+
+def uniform_in_box(key: PRNGKeyArray, shape: tuple[int, ...], lower, upper) -> Array:
+    """Points uniform in the box ``[lower, upper]`` (broadcast over the leading axes)."""
+    u = draw(key, u=("uniform", shape))["u"]
+    return lower + u * (upper - lower)
+
+
+def draw(key: PRNGKeyArray, **specs: tuple[str, tuple[int, ...]]) -> dict[str, Array]:
+    """All the random numbers of one step from ONE generator call, carved into named arrays:
+    ``draw(key, z=("normal", (n, d)), r=("uniform", (n,)))``.
+
+    NOTE: each threefry call site costs about a second of XLA compilation on CPU (more under
+    ``vmap``), and a generation needs several kinds of random numbers; drawing them all at
+    once keeps compilation short. Normals are ``√2·erfinv(w)``, uniforms ``(w + 1)/2``, with
+    ``w ~ U(−1, 1)`` excluding −1 (as ``jax.random.normal`` does).
+    """
+    sizes = {name: math.prod(shape) for name, (_, shape) in specs.items()}
+    lo = float(np.nextafter(-1.0, 0.0))
+    w = jax.random.uniform(key, (sum(sizes.values()),), jnp.float64, minval=lo, maxval=1.0)
+    out, start = {}, 0
+    for name, (kind, shape) in specs.items():
+        chunk = w[start:start + sizes[name]].reshape(shape)
+        start += sizes[name]
+        if kind == "normal":
+            out[name] = np.sqrt(2.0) * jax.scipy.special.erfinv(chunk)
+        elif kind == "uniform":
+            out[name] = 0.5 * (chunk + 1.0)
+        else:
+            raise ValueError(f"unknown kind {kind!r}")
+    return out
+
+
+def greedy(x, f, x_new, f_new):
+    """Keep the new point where it is not worse (Yang & Deb's ``get_best_nest``)."""
+    better = f_new <= f
+    return jnp.where(better[..., None], x_new, x), jnp.where(better, f_new, f)
+
+
+class PopulationState(NamedTuple):
+    """State of the population methods (CS, SMCS, VSA-SMCS).
+
+    - ``nests``: ``Float[Array, "n d"]``, the population.
+    - ``fitness``: ``Float[Array, "n"]``, the objective at each nest (+inf for NaN).
+    - ``best_x``, ``best_f``: the best point seen so far and its value.
+    - ``n_evals``: objective calls so far.
+    - ``generation``: generations done (``t`` of seed 000 eq. 11).
+    """
+
+    nests: Float[Array, "n d"]
+    fitness: Float[Array, " n"]
+    best_x: Float[Array, " d"]
+    best_f: Float[Array, ""]
+    n_evals: Int[Array, ""]
+    generation: Int[Array, ""]
+
+
+def population_state(nests, fitness, n_evals, generation, prev: PopulationState | None = None
+                     ) -> PopulationState:
+    """A :class:`PopulationState` whose best-so-far is updated from ``nests``."""
+    i = jnp.argmin(fitness)
+    bx, bf = nests[i], fitness[i]
+    if prev is not None:
+        keep = prev.best_f <= bf
+        bx = jnp.where(keep, prev.best_x, bx)
+        bf = jnp.where(keep, prev.best_f, bf)
+    return PopulationState(nests, fitness, bx, bf, jnp.asarray(n_evals, jnp.int32),
+                           jnp.asarray(generation, jnp.int32))
+
+
+class AbstractSolver(eqx.Module):
+    """A solver: hyper-parameters only. Its state is any pytree with ``best_x``,
+    ``best_f`` and ``n_evals`` attributes."""
+
+    @abc.abstractmethod
+    def init(self, fn, lower, upper, key: PRNGKeyArray) -> Any:
+        """Initial state (spends :meth:`init_evaluations` objective calls)."""
+
+    @abc.abstractmethod
+    def step(self, fn, state, lower, upper, key: PRNGKeyArray) -> Any:
+        """One generation (between ``min`` and ``max`` of :meth:`step_evaluations` calls)."""
+
+    @abc.abstractmethod
+    def terminate(self, state) -> Bool[Array, ""]:
+        """Converged (e.g. ``S(u_best) < ε``): the driver freezes the state from here on."""
+
+    def finalize(self, fn, state, lower, upper) -> Any:
+        """Called once after the scan (default: nothing to do). Counts its own calls."""
+        del fn, lower, upper
+        return state
+
+    def final_evaluations(self, n_dim: int) -> int:
+        """Objective calls made by :meth:`finalize` (reserved from the budget)."""
+        return 0
+
+    @abc.abstractmethod
+    def init_evaluations(self, n_dim: int) -> int:
+        """Objective calls made by :meth:`init`."""
+
+    @abc.abstractmethod
+    def step_evaluations(self, n_dim: int) -> tuple[int, int]:
+        """The fewest and the most objective calls one :meth:`step` makes."""
+
+
+def n_steps_for_budget(solver: AbstractSolver, n_dim: int, max_evaluations: int) -> int:
+    """The scan length that a budget of ``max_evaluations`` calls allows (at least 1):
+    exact for the population methods, an upper bound where a step's cost varies."""
+    lo, _ = solver.step_evaluations(n_dim)
+    spare = int(max_evaluations) - solver.init_evaluations(n_dim) - solver.final_evaluations(n_dim)
+    return max(1, spare // lo)
+
+
+def with_generation_budget(solver: AbstractSolver, n_generations: int) -> AbstractSolver:
+    """Solvers whose step depends on the planned number of generations (VSA-SMCS's
+    ``T_max``) take it from the budget when their ``max_generations`` is ``None``."""
+    if getattr(solver, "max_generations", "absent") is None:
+        return dataclasses.replace(solver, max_generations=int(n_generations))
+    return solver
+
+
+def minimise(
+    solver: AbstractSolver,
+    fn,
+    lower: Float[Array, " d"],
+    upper: Float[Array, " d"],
+    key: PRNGKeyArray,
+    max_evaluations: int,
+    *,
+    return_state: bool = False,
+):
+    """Minimise ``fn`` over the box ``[lower, upper]`` with ``solver`` within
+    ``max_evaluations`` objective calls. Pure and jittable (``solver`` and the budget are
+    static); deterministic for a given ``key``; vmap it over keys and objective data for
+    Monte Carlo.
+
+    Returns an :class:`OptimiseResult` (``history_*`` has one entry per scan step, frozen
+    entries repeating the last value), and the final state too if ``return_state``.
+    """
+    lower = jnp.asarray(lower, jnp.float64)
+    upper = jnp.asarray(upper, jnp.float64)
+    n_dim = lower.shape[-1]
+    fixed = solver.init_evaluations(n_dim) + solver.final_evaluations(n_dim)
+    if fixed > max_evaluations:
+        raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} calls that "
+                         "initialisation alone needs")
+    n_steps = n_steps_for_budget(solver, n_dim, max_evaluations)
+    limit = getattr(solver, "max_generations", None)
+    if limit is not None:
+        n_steps = min(n_steps, int(limit))
+    solver = with_generation_budget(solver, n_steps)
+    _, max_per_step = solver.step_evaluations(n_dim)
+    max_per_step += solver.final_evaluations(n_dim)
+    fn = nan_to_inf(fn)
+    k_init, k_steps = jax.random.split(key)
+    state = solver.init(fn, lower, upper, k_init)
+
+    def body(state, k):
+        frozen = solver.terminate(state) | (state.n_evals + max_per_step > max_evaluations)
+        state = lax.cond(frozen, lambda s: s,
+                         lambda s: solver.step(fn, s, lower, upper, k), state)
+        return state, (state.best_f, state.n_evals)
+
+    state, (hist_f, hist_n) = lax.scan(body, state, jax.random.split(k_steps, n_steps))
+    state = solver.finalize(fn, state, lower, upper)
+    status = jnp.where(~jnp.isfinite(state.best_f), NONFINITE,
+                       jnp.where(solver.terminate(state), SUCCESS, MAX_STEPS))
+    result = OptimiseResult(
+        params=state.best_x,
+        cost=state.best_f,
+        n_evaluations=jnp.asarray(state.n_evals, jnp.int32),
+        status=jnp.asarray(status, jnp.int32),
+        history_cost=hist_f,
+        history_evaluations=jnp.asarray(hist_n, jnp.int32),
+    )
+    return (result, state) if return_state else result

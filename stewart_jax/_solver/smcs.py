@@ -1,0 +1,64 @@
+"""SMCS: cuckoo search improved by simplex operations on the worst nests.
+
+Seed 000 §2.1 (Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018, after its
+refs. [12–13]): before each CS generation (Yang & Deb 2009, :mod:`.cuckoo`) the population is
+read as a Nelder–Mead simplex and its worst nests are replaced by reflection, expansion,
+contraction or shrink (:func:`.simplex.simplex_on_worst`); the CS generation then starts from
+the result. As the paper describes it — and as the defect VSA-SMCS fixes — the simplex steps
+are **not** bounded: nests (and the reported best point) can leave Ω. The CS phases still
+clip their own trial points to Ω.
+"""
+
+from __future__ import annotations
+
+from ._driver import AbstractSolver, population_state
+from .cuckoo import cs_randoms, discovery_phase, init_population, levy_flight_phase
+from .levy import BETA
+from .simplex import SimplexCoefficients, simplex_on_worst
+
+
+class SMCS(AbstractSolver):
+    """Simplex-modified cuckoo search (seed 000 §2.1).
+
+    - ``n_nests``: 37, the population of seed 000 §2.3 (a simplex in 36 dimensions), so that
+      SMCS and VSA-SMCS compare at equal settings.
+    - ``n_worst``: simplex operations per generation, one per worst nest; the paper does not
+      say for SMCS: 12, the value it gives for VSA-SMCS, so that the comparison isolates the
+      adaptive step and the bound limiting.
+    - ``pa`` 0.25, ``alpha`` 0.01, ``beta`` 1.5: Yang & Deb's CS (see :class:`.CuckooSearch`).
+    - ``coefficients``: Nelder–Mead coefficients (standard values).
+    - ``epsilon``: stop when the best value falls below it; 0.0 (run the whole budget).
+
+    Evaluations: ``n_nests`` at init; ``3·n_worst + 2·n_nests`` per generation.
+    """
+
+    n_nests: int = 37
+    n_worst: int = 12
+    pa: float = 0.25
+    alpha: float = 0.01
+    beta: float = BETA
+    coefficients: SimplexCoefficients = SimplexCoefficients()
+    epsilon: float = 0.0
+
+    def init(self, fn, lower, upper, key):
+        return init_population(fn, lower, upper, key, self.n_nests)
+
+    def step(self, fn, state, lower, upper, key):
+        nests, fit = simplex_on_worst(fn, state.nests, state.fitness, self.n_worst,
+                                      self.coefficients)
+        state = population_state(nests, fit, state.n_evals + 3 * self.n_worst,
+                                 state.generation, state)
+        rnd = cs_randoms(key, *state.nests.shape)
+        state = levy_flight_phase(fn, state, lower, upper, rnd, self.alpha, self.beta)
+        state = discovery_phase(fn, state, lower, upper, rnd, self.pa)
+        return state._replace(generation=state.generation + 1)
+
+    def terminate(self, state):
+        return state.best_f < self.epsilon
+
+    def init_evaluations(self, n_dim):
+        return self.n_nests
+
+    def step_evaluations(self, n_dim):
+        n = 3 * self.n_worst + 2 * self.n_nests
+        return n, n
