@@ -7,7 +7,7 @@ STAMP := $(VENV)/.stewart-jax-installed
 
 # Demo size: trials of the seed-000 study per method (a few minutes on 2 cores).
 DEMO_TRIALS ?= 10
-DEMO_METHODS ?= lm
+DEMO_METHODS ?= lm,lm-jaxopt,cs,smcs,vsa-smcs,vsa-smcs+lm,nelder-mead
 
 .PHONY: venv demo test lint bench clean
 
