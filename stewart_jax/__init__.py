@@ -49,6 +49,11 @@ from ._kinematics import (
     solve_inverse_kinematics as solve_inverse_kinematics,
     upper_joints_in_base as upper_joints_in_base,
 )
+from ._kinematics_batched import (
+    forward_kinematics_newton as forward_kinematics_newton,
+    inverse_kinematics_sharded as inverse_kinematics_sharded,
+    inverse_kinematics_soa as inverse_kinematics_soa,
+)
 from ._simulation import (
     PLANS as PLANS,
     TRAVEL_MM as TRAVEL_MM,
