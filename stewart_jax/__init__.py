@@ -43,6 +43,7 @@ from ._kinematics import (
     IKSolution as IKSolution,
     euler_angles as euler_angles,
     forward_kinematics as forward_kinematics,
+    ik_and_jacobian as ik_and_jacobian,
     inverse_kinematics as inverse_kinematics,
     kinematic_jacobian as kinematic_jacobian,
     rotation_matrix as rotation_matrix,

@@ -78,6 +78,32 @@ def upper_joints_in_base(geometry: Geometry, poses: Float[Array, "... 6"]) -> Fl
     )
 
 
+class _IKParts(NamedTuple):
+    rot: Array  # T, (..., 3, 3)
+    w: Array  # T·Ac_i, (..., 6, 3)
+    ell: Array  # rod vector at zero stroke, T·Ac_i + d + v0 − Bc_i, (..., 6, 3)
+    growth: Array  # δ(2e + δ), (..., 6, 3)
+    margin: Array  # (..., 6)
+    root: Array  # sqrt(max(margin, 0)), (..., 6)
+    strokes: Array  # (..., 6)
+
+
+def _ik_parts(geometry: Geometry, poses: Float[Array, "... 6"]) -> _IKParts:
+    rot = rotation_matrix(poses[..., 3:])
+    upper = geometry.upper
+    w = jnp.einsum("...jk,ik->...ij", rot, upper)
+    delta = w - upper + poses[..., None, :3]
+    e = upper + geometry.v0 - geometry.lower
+    growth = delta * (2.0 * e + delta)
+    margin = e[:, 2] ** 2 - growth[..., 0] - growth[..., 1]
+    root = jnp.sqrt(jnp.maximum(margin, 0.0))
+    ell = e + delta
+    denom = ell[..., 2] + root
+    rationalised = jnp.sum(growth, axis=-1) / jnp.where(denom > 0, denom, 1.0)
+    strokes = jnp.where(denom > 0, rationalised, ell[..., 2] - root)
+    return _IKParts(rot, w, ell, growth, margin, root, strokes)
+
+
 def solve_inverse_kinematics(geometry: Geometry, poses: Float[Array, "... 6"]) -> IKSolution:
     """Inverse kinematics (eq. 4) with its reachability margin; pure and jittable.
 
@@ -92,18 +118,37 @@ def solve_inverse_kinematics(geometry: Geometry, poses: Float[Array, "... 6"]) -
     then keep full relative precision instead of being the difference of two ~200 mm
     numbers, and ``q`` is exactly 0 at the zero pose for any geometry.
     """
-    rot = rotation_matrix(poses[..., 3:])
+    parts = _ik_parts(geometry, poses)
+    return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1))
+
+
+def ik_and_jacobian(geometry: Geometry, poses: Float[Array, "... 6"]):
+    """Strokes, margins (``(..., 6)``) and the analytic Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``).
+
+    With the rod vector at zero stroke ``ℓ = T·Ac + d + v0 − Bc`` and ``h = sqrt(m)`` its
+    z-extent once the slider has moved, ``q = ℓz − h`` gives ``∂q = ∂ℓz + (ℓx·∂ℓx + ℓy·∂ℓy)/h``
+    with ``∂ℓ/∂d = I``, ``∂ℓ/∂φ = T·(e_x × Ac)``, ``∂ℓ/∂θ = (Rz(ψ)·e_y) × T·Ac`` and
+    ``∂ℓ/∂ψ = e_z × T·Ac``.
+    """
+    parts = _ik_parts(geometry, poses)
+    rot, w, ell, h = parts.rot, parts.w, parts.ell, parts.root
     upper = geometry.upper
-    delta = jnp.einsum("...jk,ik->...ij", rot, upper) - upper + poses[..., None, :3]
-    e = upper + geometry.v0 - geometry.lower
-    growth = delta * (2.0 * e + delta)
-    margin = e[:, 2] ** 2 - growth[..., 0] - growth[..., 1]
-    root = jnp.sqrt(jnp.maximum(margin, 0.0))
-    lz = e[:, 2] + delta[..., 2]
-    denom = lz + root
-    rationalised = jnp.sum(growth, axis=-1) / jnp.where(denom > 0, denom, 1.0)
-    strokes = jnp.where(denom > 0, rationalised, lz - root)
-    return IKSolution(strokes, margin, jnp.all(margin >= 0.0, axis=-1))
+    ax, ay = ell[..., 0] / h, ell[..., 1] / h  # ∂q/∂dx, ∂q/∂dy
+    dphi = -upper[:, 2:3] * rot[..., None, :, 1] + upper[:, 1:2] * rot[..., None, :, 2]
+    sp, cp = jnp.sin(poses[..., 5:6]), jnp.cos(poses[..., 5:6])
+    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
+    jac = jnp.stack(
+        [
+            ax,
+            ay,
+            jnp.ones_like(ax),
+            dphi[..., 2] + ax * dphi[..., 0] + ay * dphi[..., 1],
+            -sp * wy - cp * wx + (ax * cp + ay * sp) * wz,
+            ay * wx - ax * wy,
+        ],
+        axis=-1,
+    )
+    return parts.strokes, parts.margin, jac
 
 
 def inverse_kinematics(geometry: Geometry, poses: ArrayLike) -> Float[Array, "... 6"]:
@@ -133,9 +178,9 @@ def inverse_kinematics(geometry: Geometry, poses: ArrayLike) -> Float[Array, "..
     return sol.strokes
 
 
-def kinematic_jacobian(geometry: Geometry, pose: Float[Array, "6"]) -> Float[Array, "6 6"]:
-    """``∂q/∂P`` at one pose (mm per mm / mm per rad); vmap it for batches."""
-    return jax.jacfwd(lambda p: solve_inverse_kinematics(geometry, p).strokes)(pose)
+def kinematic_jacobian(geometry: Geometry, pose: Float[Array, "... 6"]) -> Float[Array, "... 6 6"]:
+    """``∂q/∂P`` (mm per mm / mm per rad), analytic (:func:`ik_and_jacobian`); any batch shape."""
+    return ik_and_jacobian(geometry, pose)[2]
 
 
 class FKSolution(NamedTuple):
@@ -179,21 +224,29 @@ def _fk_one(
         _, _, err, k, stalled = carry
         return (k < max_steps) & (err > tol) & ~stalled
 
-    def body(carry):
-        p, f, err, k, _ = carry
-        jac = jax.jacfwd(lambda x: residual(x)[0])(p)
-        step = jnp.linalg.solve(jac, f)
-        # Backtracking: the first of 1, 1/2, ..., 1/16 of the Newton step that stays in the
-        # workspace and lowers max|F|; none does → stop (reported as not converged).
-        alphas = 0.5 ** jnp.arange(5.0)
+    def backtrack(p, step, err):
+        # The first of 1/2, ..., 1/16 of the Newton step that stays in the workspace and
+        # lowers max|F|; none does → the solve stops (reported as not converged).
+        alphas = 0.5 ** jnp.arange(1.0, 5.0)
         cand = p - alphas[:, None] * step
         cf, cerr = jax.vmap(residual)(cand)
         better = cerr < err
         i = jnp.argmax(better)
-        accept = better[i] & jnp.all(jnp.isfinite(step))
-        p = jnp.where(accept, cand[i], p)
-        f = jnp.where(accept, cf[i], f)
-        err = jnp.where(accept, cerr[i], err)
+        return cand[i], cf[i], cerr[i], better[i]
+
+    def body(carry):
+        p, f, err, k, _ = carry
+        jac = ik_and_jacobian(geometry, p)[2]
+        step = jnp.linalg.solve(jac, f)
+        full = p - step
+        f_full, err_full = residual(full)
+        p, f, err_new, accept = jax.lax.cond(
+            err_full < err,
+            lambda: (full, f_full, err_full, jnp.asarray(True)),
+            lambda: backtrack(p, step, err),
+        )
+        accept = accept & jnp.all(jnp.isfinite(step))
+        err = jnp.where(accept, err_new, err)
         return p, f, err, k + accept.astype(k.dtype), ~accept
 
     f0, err0 = residual(initial_pose)

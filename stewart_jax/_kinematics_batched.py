@@ -43,7 +43,7 @@ from ._kinematics import (
     IKSolution,
     check_array,
     check_poses,
-    rotation_matrix,
+    ik_and_jacobian,
 )
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: through x¹³ and x¹⁴. For |x| ≤ 0.5 the
@@ -199,45 +199,6 @@ def inverse_kinematics_sharded(
 # --------------------------------------------------------------------------------------------
 
 
-def _ik_and_jacobian(geometry: Geometry, poses: Float[Array, "... 6"]):
-    """Strokes, margins (``(..., 6)``) and the analytic Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``).
-
-    With the rod vector at zero stroke ``ℓ = T·Ac + d + v0 − Bc`` and ``h = sqrt(m)`` its
-    z-extent once the slider has moved, ``q = ℓz − h`` gives ``∂q = ∂ℓz + (ℓx·∂ℓx + ℓy·∂ℓy)/h``
-    with ``∂ℓ/∂d = I``, ``∂ℓ/∂φ = T·(e_x × Ac)``, ``∂ℓ/∂θ = (Rz(ψ)·e_y) × T·Ac`` and
-    ``∂ℓ/∂ψ = e_z × T·Ac``. Strokes use the same cancellation-free form as
-    :func:`~stewart_jax.solve_inverse_kinematics`.
-    """
-    rot = rotation_matrix(poses[..., 3:])
-    upper = geometry.upper
-    w = jnp.einsum("...jk,ik->...ij", rot, upper)  # T·Ac_i, (..., 6, 3)
-    delta = w - upper + poses[..., None, :3]
-    e = upper + geometry.v0 - geometry.lower
-    growth = delta * (2.0 * e + delta)
-    margin = e[:, 2] ** 2 - growth[..., 0] - growth[..., 1]
-    h = jnp.sqrt(jnp.maximum(margin, 0.0))
-    ell = e + delta
-    denom = ell[..., 2] + h
-    ok = denom > 0
-    strokes = jnp.where(ok, jnp.sum(growth, axis=-1) / jnp.where(ok, denom, 1.0), ell[..., 2] - h)
-    ax, ay = ell[..., 0] / h, ell[..., 1] / h  # ∂q/∂dx, ∂q/∂dy
-    dphi = -upper[:, 2:3] * rot[..., None, :, 1] + upper[:, 1:2] * rot[..., None, :, 2]
-    sp, cp = jnp.sin(poses[..., 5:6]), jnp.cos(poses[..., 5:6])
-    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
-    jac = jnp.stack(
-        [
-            ax,
-            ay,
-            jnp.ones_like(ax),
-            dphi[..., 2] + ax * dphi[..., 0] + ay * dphi[..., 1],
-            -sp * wy - cp * wx + (ax * cp + ay * sp) * wz,
-            ay * wx - ax * wy,
-        ],
-        axis=-1,
-    )
-    return strokes, margin, jac
-
-
 def _solve_near_identity(a, b):
     """Solve ``A x = b`` elementwise (entries of any batch shape) by Gaussian elimination without
     pivoting, unrolled; meant for ``A = J0⁻¹·J ≈ I`` where every pivot is near 1."""
@@ -261,13 +222,13 @@ def _solve_near_identity(a, b):
 
 def _fk_newton(geometry: Geometry, q, p0, steps: int, tol: float):
     """Fixed-step Newton for strokes ``q`` (n, 6) from poses ``p0`` (n, 6)."""
-    jac0 = _ik_and_jacobian(geometry, jnp.zeros(6, q.dtype))[2]
+    jac0 = ik_and_jacobian(geometry, jnp.zeros(6, q.dtype))[2]
     # Precondition by the zero-pose Jacobian: J0⁻¹·J stays near I over the travel, so the
     # unpivoted elimination is stable and needs no pivot search (selects) per pose.
     j0inv = jnp.linalg.inv(jac0)
 
     def step(_, p):
-        strokes, _, jac = _ik_and_jacobian(geometry, p)
+        strokes, _, jac = ik_and_jacobian(geometry, p)
         m = j0inv @ jac
         rhs = (strokes - q) @ j0inv.T
         x = _solve_near_identity(
@@ -276,7 +237,7 @@ def _fk_newton(geometry: Geometry, q, p0, steps: int, tol: float):
         return p - jnp.stack(x, axis=-1)
 
     p = jax.lax.fori_loop(0, steps, step, p0)
-    strokes, margin, _ = _ik_and_jacobian(geometry, p)
+    strokes, margin, _ = ik_and_jacobian(geometry, p)
     res = jnp.max(jnp.abs(strokes - q), axis=-1)
     return p, res, (res <= tol) & jnp.all(margin >= 0.0, axis=-1)
 
