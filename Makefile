@@ -7,9 +7,10 @@ STAMP := $(VENV)/.stewart-jax-installed
 
 # Demo size: trials of the seed-000 study per method (a few minutes on 2 cores).
 DEMO_TRIALS ?= 10
+DEMO_BUDGET ?= 50000
 DEMO_METHODS ?= lm,lm-jaxopt,cs,smcs,vsa-smcs,vsa-smcs+lm,nelder-mead
 
-.PHONY: venv demo test lint bench clean
+.PHONY: venv demo test lint bench bench-deps clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,7 +21,7 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/stewart-jax study --methods $(DEMO_METHODS) --trials $(DEMO_TRIALS)
+	$(BIN)/stewart-jax study --methods $(DEMO_METHODS) --trials $(DEMO_TRIALS) --max-evaluations $(DEMO_BUDGET)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -28,8 +29,16 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check stewart_jax tests benchmarks
 
-bench: $(STAMP)
+bench-deps: $(STAMP)
+	$(BIN)/python -m pip install --quiet pandas requests Pillow
+	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
+
+bench: bench-deps
 	$(BIN)/python benchmarks/kinematics.py
+	$(BIN)/python benchmarks/optimisers.py
+	$(BIN)/python benchmarks/table2.py
+	$(BIN)/python benchmarks/fast.py
+	$(BIN)/python benchmarks/discrepancy.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info

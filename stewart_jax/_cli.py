@@ -113,7 +113,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     )
     result = run_study(
         methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
-        args.half_width, options,
+        args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
     )
     print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
     print(format_study_table(result, "calibration"))
@@ -169,6 +169,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tracker", action="store_true")
     p.add_argument("--half-width", type=float, default=10.0)
     p.add_argument("--max-evaluations", type=int, help="evaluation budget of the metaheuristics")
+    p.add_argument("--chunk", type=int, help="trials per chunk (progress; checkpoint granularity)")
+    p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume")
     p.add_argument("--json", help="write the full result as JSON")
     p.set_defaults(func=_cmd_study)
 

@@ -15,6 +15,7 @@ chunk: an interrupted run restarted with the same checkpoint continues where it 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -91,6 +92,15 @@ def simulate_trials(
     key per trial for stochastic optimisers."""
     if plan not in ("paper8", "plan120"):
         raise ValueError(f"the study runs plan 'paper8' or 'plan120', got {plan!r}")
+    sims, targets, validation, opt_keys = _simulate_batch(keys, nominal, actual, plan, sigma_um, sigma_arcsec, tracker)
+    if not bool(jnp.all(sims.converged)):
+        raise RuntimeError("forward kinematics of the true mechanism failed for a target pose")
+    problems = jax.vmap(lambda d: calibration_problem(d, nominal, half_width))(sims.data)
+    return problems, targets, validation, opt_keys
+
+
+@functools.partial(jax.jit, static_argnames=("plan", "tracker"))
+def _simulate_batch(keys, nominal, actual, plan, sigma_um, sigma_arcsec, tracker):
     trk = default_tracker() if tracker else None
 
     def one(key):
@@ -99,11 +109,7 @@ def simulate_trials(
         sim = simulate_measurements(k_noise, nominal, actual, targets, sigma_um, sigma_arcsec, trk)
         return sim, targets, random_poses(k_val, 42), k_opt
 
-    sims, targets, validation, opt_keys = jax.jit(jax.vmap(one))(keys)
-    if not bool(jnp.all(sims.converged)):
-        raise RuntimeError("forward kinematics of the true mechanism failed for a target pose")
-    problems = jax.vmap(lambda d: calibration_problem(d, nominal, half_width))(sims.data)
-    return problems, targets, validation, opt_keys
+    return jax.vmap(one)(keys)
 
 
 @jax.jit

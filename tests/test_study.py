@@ -1,0 +1,36 @@
+import jax
+import numpy as np
+import pytest
+
+import stewart_jax._study as study
+from stewart_jax._cli import main
+
+
+def test_trial_keys_do_not_depend_on_the_number_of_trials():
+    a = jax.random.key_data(study.trial_keys(3, 5))
+    b = jax.random.key_data(study.trial_keys(3, 2))
+    np.testing.assert_array_equal(a[:2], b)
+
+
+def test_checkpoint_resume_skips_finished_chunks(tmp_path, monkeypatch):
+    ck = str(tmp_path / "ck.json")
+    first = study.run_study(("lm",), n_trials=4, chunk_size=2, checkpoint=ck, keep_trials=True)
+    lm = first["rows"]["LM (optimistix)"]
+    assert len(lm["calibration"]["per_trial_max"]) == 4
+    # LM reaches the noise floor: ~0.3 µm control error at the calibration poses (see README).
+    assert np.max(lm["calibration"]["per_trial_max"]) < 2.0
+
+    def fail(*args, **kwargs):
+        raise AssertionError("a finished chunk was recomputed")
+
+    monkeypatch.setattr(study, "_run_chunk", fail)
+    again = study.run_study(("lm",), n_trials=4, chunk_size=2, checkpoint=ck, keep_trials=True)
+    assert again["rows"] == first["rows"]
+    with pytest.raises(ValueError, match="other settings"):
+        study.run_study(("lm",), n_trials=4, chunk_size=2, checkpoint=ck, sigma_um=0.5)
+
+
+def test_study_command_prints_table(capsys):
+    assert main(["study", "--methods", "lm", "--trials", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "| LM (optimistix) |" in out and "paper: VSA-SMCS" in out
