@@ -174,8 +174,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the full result as JSON")
     p.set_defaults(func=_cmd_study)
 
+    from .discrepancy._cli import add_diagnose_parser
     from .fast._cli import add_fast_parser
 
+    add_diagnose_parser(sub)
     add_fast_parser(sub)
     return parser
 

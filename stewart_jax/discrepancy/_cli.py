@@ -1,0 +1,115 @@
+"""``stewart-jax diagnose`` (SPEC §6–7) and ``stewart-jax simulate-effect``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from .._geometry import load_geometry
+    from .._io import read_csv
+    from ._pss import pss_model
+    from ._workflow import diagnose
+
+    data = read_csv(args.file)
+    model = pss_model(load_geometry(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
+    effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    report = diagnose(
+        data,
+        model,
+        effects=effects,
+        holdout_fraction=args.holdout_fraction,
+        seed=args.seed,
+        alpha=args.alpha,
+        estimate_noise=args.estimate_noise,
+    )
+    out = report.to_dict()
+    out["file"] = args.file
+    out["settings"] = {
+        "geometry": args.geometry,
+        "sigma_um": args.sigma_um,
+        "sigma_arcsec": args.sigma_arcsec,
+        "sigma_stroke_um": args.sigma_stroke_um,
+        "holdout_fraction": args.holdout_fraction,
+        "seed": args.seed,
+        "alpha": args.alpha,
+        "estimate_noise": args.estimate_noise,
+    }
+    if args.plot:
+        from ._plots import plot_residuals
+
+        out["plots"] = plot_residuals(report, args.plot)
+    if args.out_model:
+        from ._pss import save_fitted_model
+
+        save_fitted_model(report.fitted, args.out_model)
+    skipped = "; ".join(f"{s['effect']}: {s['reason']}" for s in report.skipped)
+    indist = ""
+    if report.indistinguishable_from:
+        indist = f" (indistinguishable from {', '.join(report.indistinguishable_from)})"
+    print(
+        f"diagnose: detected={report.detected} (held-out p = {report.detect_p_value:.3g}), "
+        f"named: {report.named_effect}{indist}; held-out RMS {report.gap_before:.4g} → {report.gap_after:.4g} "
+        f"{report.fitted.model.report_unit} (noise floor {report.noise_floor:.4g})"
+        + (f"; skipped {skipped}" if skipped else ""),
+        file=sys.stderr,
+    )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+    else:
+        print(json.dumps(out))
+    return 0
+
+
+def _cmd_simulate_effect(args: argparse.Namespace) -> int:
+    from ._hidden import simulate_hidden_effect, write_hidden_csv
+
+    effect = None if args.effect == "none" else args.effect
+    sim = simulate_hidden_effect(
+        args.seed, effect, args.magnitude, n_random=args.n_random, plan=not args.no_plan,
+        sigma_um=args.sigma_um, sigma_arcsec=args.sigma_arcsec,
+    )
+    write_hidden_csv(args.out, sim)
+    print(
+        f"wrote {sim.data.n_poses} poses with hidden effect {args.effect} (unabsorbable signature "
+        f"{sim.truth.magnitude:.3g}× noise, total {sim.truth.raw_magnitude:.3g}×) to {args.out}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
+    p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show (SPEC §7)")
+    p.add_argument("file", help="measured data CSV (SPEC §6; dir1..dir6, temperature, time optional)")
+    p.add_argument("--geometry", default="nominal", help="starting geometry: preset or JSON/TOML file")
+    p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
+    p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
+    p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="encoder reading noise σ (µm)")
+    p.add_argument("--estimate-noise", action="store_true",
+                   help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
+    p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")
+    p.add_argument("--seed", type=int, default=0, help="seed of the train/held-out split")
+    p.add_argument("--alpha", type=float, default=0.05, help="false-alarm level of the detection test")
+    p.add_argument("--effects", help="comma-separated candidate names (default: all registered)")
+    p.add_argument("--json", help="write the report as JSON")
+    p.add_argument("--plot", metavar="DIR", help="write residual plots (before/after) to DIR")
+    p.add_argument("--out-model", help="write the augmented model (geometry + effect parameters) as JSON")
+    p.set_defaults(func=_cmd_diagnose)
+
+    from ._hidden import EFFECT_NAMES
+
+    q = subparsers.add_parser("simulate-effect", help="simulated measured data with one hidden effect (CSV)")
+    q.add_argument("--out", required=True)
+    q.add_argument("--effect", choices=("none",) + EFFECT_NAMES, default="none")
+    q.add_argument("--magnitude", type=float, default=3.0, help="unabsorbable signature RMS / noise")
+    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("--n-random", type=int, default=60, help="random poses added to the 120-pose plan")
+    q.add_argument("--no-plan", action="store_true", help="random poses only")
+    q.add_argument("--sigma-um", type=float, default=0.1)
+    q.add_argument("--sigma-arcsec", type=float, default=0.1)
+    q.set_defaults(func=_cmd_simulate_effect)
+    return p

@@ -1,0 +1,114 @@
+"""The candidate effects of SPEC §7 for the 6-PSS model.
+
+Each is the physics of the *true* mechanism written as a change of the model's
+:class:`~stewart_jax.discrepancy._pss.PSSState`; ``theta = 0`` is the 36-parameter model.
+Parameters are per leg (index ``i`` = leg ``i + 1``) unless stated. ``m`` is the number of
+poses.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._calibration import ARCSEC, UM, CalibrationData
+from .._kinematics import euler_angles, rotation_matrix
+from ._pss import MODEL_NAME, PSSState
+from ._registry import register_effect
+
+T_REF_C = 20.0
+"""Reference temperature of ``thermal_expansion`` (°C): the rod lengths of the geometry hold
+at this temperature."""
+
+DRIFT_TIME_UNIT_S = 3600.0
+"""Drift rates are reported per hour."""
+
+
+@register_effect(MODEL_NAME, "zero_offset", n_params=6, scale=UM, unit="µm", report_factor=1 / UM)
+def zero_offset(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Encoder zero not at the zero pose: reading = true stroke + ``c_i`` (mm). Equivalent to
+    rod lengths that differ from the zero-pose geometry (the 6 extra parameters of the
+    42-parameter model)."""
+    return state._replace(offset=state.offset + theta)
+
+
+@register_effect(MODEL_NAME, "stroke_scale", n_params=6, scale=1e-4, unit="ppm", report_factor=1e6)
+def stroke_scale(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Lead-screw pitch / encoder scale error: true stroke = ``(1 + k_i)`` · reading
+    (``k_i`` dimensionless)."""
+    return state._replace(gain=state.gain / (1.0 + theta))
+
+
+def _tilted_axes(theta: Float[Array, "12"]) -> Float[Array, "6 3"]:
+    alpha, beta = theta[:6], theta[6:]
+    return jnp.stack([jnp.cos(alpha) * jnp.sin(beta), -jnp.sin(alpha), jnp.cos(alpha) * jnp.cos(beta)], axis=-1)
+
+
+@register_effect(MODEL_NAME, "actuator_tilt", n_params=12, scale=1e-4, unit="µrad", report_factor=1e6)
+def actuator_tilt(theta: Float[Array, "12"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Slider axes not parallel to B's z axis: leg i's slider moves along
+    ``Ry(β_i)·Rx(α_i)·e_z``; ``theta = [α_1..α_6, β_1..β_6]`` (rad). The lower joint at zero
+    stroke stays at ``Bc_i``."""
+    return state._replace(axes=_tilted_axes(theta))
+
+
+@register_effect(
+    MODEL_NAME, "backlash", n_params=6, scale=UM, unit="µm", report_factor=1 / UM, requires=("directions",)
+)
+def backlash(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Lost motion of width ``b_i`` (mm): approached from direction ``dir_i = ±1`` the reading
+    is offset by ``b_i·dir_i/2`` from the true stroke."""
+    return state._replace(offset=state.offset + 0.5 * theta * data.directions)
+
+
+@register_effect(
+    MODEL_NAME,
+    "thermal_expansion",
+    n_params=6,
+    scale=1e-6,
+    unit="ppm/K",
+    report_factor=1e6,
+    requires=("temperature",),
+)
+def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Rod lengths change with temperature: ``L_i(T) = L_i·(1 + α_i·(T − 20 °C))``, ``α_i`` in
+    1/K (one coefficient per rod: rods of one material share it, but their temperatures need
+    not)."""
+    length0 = jnp.linalg.norm(state.upper + state.v0 - state.lower, axis=-1)
+    return state._replace(dlength=state.dlength + length0 * theta * (data.temperature[:, None] - T_REF_C))
+
+
+@register_effect(
+    MODEL_NAME,
+    "drift",
+    n_params=6,
+    scale=UM / DRIFT_TIME_UNIT_S,
+    unit="µm/h",
+    report_factor=DRIFT_TIME_UNIT_S / UM,
+    requires=("time",),
+)
+def drift(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """Readings drift linearly during the run: reading = true stroke + ``c_i·t`` (``c_i`` in
+    mm/s, ``t`` the ``time`` column)."""
+    return state._replace(offset=state.offset + theta * data.time[:, None])
+
+
+@register_effect(
+    MODEL_NAME,
+    "tracker_misalignment",
+    n_params=6,
+    scale=(10 * ARCSEC,) * 3 + (UM,) * 3,
+    unit="″,″,″,µm,µm,µm",
+    report_factor=(1 / ARCSEC,) * 3 + (1 / UM,) * 3,
+    acts_on="measurement",
+)
+def tracker_misalignment(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
+    """The instrument frame M is rotated by ``R(ρ)`` (``ρ = theta[:3]``, rad, the Euler
+    convention of SPEC §1) and shifted by ``τ = theta[3:]`` (mm) relative to B: a point is
+    ``x_B = R(ρ)·x_M + τ``. The measured pose is the platform pose in M, so the true pose is
+    ``R = R(ρ)·R'``, ``d + v0 = R(ρ)·(d' + v0) + τ``. Acts on the measurement only: for control
+    the targets are already in B."""
+    rho = rotation_matrix(theta[:3])
+    rot = jnp.einsum("jk,mkl->mjl", rho, rotation_matrix(state.poses[:, 3:]))
+    d = (state.poses[:, :3] + state.v0) @ rho.T + theta[3:] - state.v0
+    return state._replace(poses=jnp.concatenate([d, euler_angles(rot)], axis=-1))

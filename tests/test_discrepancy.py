@@ -1,0 +1,282 @@
+"""Tests of the model-discrepancy workflow (SPEC §7) on the 6-PSS model.
+
+One batch of hidden-effect data sets (every candidate and none; 40 random poses each, so that
+every diagnose call shares one set of compiled kernels) is analysed once per session.
+"""
+
+import argparse
+import json
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.stats
+
+import stewart_jax as sj
+from stewart_jax import discrepancy as dc
+from stewart_jax.discrepancy import _workflow as wf
+
+N_RANDOM = 40
+MAGNITUDE = 5.0
+SEED = 7
+
+
+@pytest.fixture(scope="module")
+def model():
+    return dc.pss_model(sj.nominal_geometry())
+
+
+@pytest.fixture(scope="module")
+def hidden():
+    return {eff: dc.simulate_hidden_effect(SEED, eff, MAGNITUDE, n_random=N_RANDOM, plan=False)
+            for eff in (None,) + dc.EFFECT_NAMES}
+
+
+@pytest.fixture(scope="module")
+def reports(model, hidden):
+    return {eff: dc.diagnose(sim.data, model, seed=SEED) for eff, sim in hidden.items()}
+
+
+# ---------------------------------------------------------------- kinematics of the extended model
+
+
+def test_pss_strokes_matches_library_ik_and_leg_constraint():
+    rng = np.random.default_rng(0)
+    g = sj.actual_geometry()
+    poses = rng.uniform(-1, 1, (30, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
+    up, lo, v0 = g.upper, g.lower, g.v0
+    ez = jnp.broadcast_to(jnp.array([0.0, 0.0, 1.0]), (6, 3))
+    q = dc.pss_strokes(up, lo, v0, ez, jnp.zeros((30, 6)), jnp.asarray(poses))
+    np.testing.assert_allclose(q, sj.inverse_kinematics(g, poses), atol=1e-12)
+    # Tilted axes and changed rod lengths: |a − Bc − q n| = L + ΔL, checked directly.
+    ang = rng.uniform(-1e-2, 1e-2, (6, 2))
+    n = np.stack([np.cos(ang[:, 0]) * np.sin(ang[:, 1]), -np.sin(ang[:, 0]), np.cos(ang[:, 0]) * np.cos(ang[:, 1])], -1)
+    dl = rng.uniform(-0.05, 0.05, (30, 6))
+    q = np.asarray(dc.pss_strokes(up, lo, v0, jnp.asarray(n), jnp.asarray(dl), jnp.asarray(poses)))
+    a = np.asarray(sj.upper_joints_in_base(g, jnp.asarray(poses)))
+    leg = a - np.asarray(lo) - q[..., None] * n
+    length = np.linalg.norm(np.asarray(up) + np.asarray(v0) - np.asarray(lo), axis=-1) + dl
+    np.testing.assert_allclose(np.linalg.norm(leg, axis=-1), length, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("effect", dc.EFFECT_NAMES)
+def test_effect_is_identity_at_zero_and_matches_the_simulated_mechanism(effect):
+    """Each registered definition (model side) reproduces the independently written simulator of
+    the true mechanism (generator side) at the true parameters, to rounding."""
+    g = sj.actual_geometry()
+    sim = dc.simulate_hidden_effect(3, effect, 5.0, n_random=12, plan=False, noise=False)
+    m = dc.pss_model(g)
+    e = dc.get_effect("6-pss", effect)
+    zero = m.predict(g.params, (e,), (jnp.zeros(e.n_params),), sim.data)
+    np.testing.assert_allclose(zero, sj.inverse_kinematics(g, sim.data.poses), atol=1e-12)
+    pred = m.predict(g.params, (e,), (jnp.asarray(sim.truth.theta),), sim.data)
+    np.testing.assert_allclose(pred, sim.data.strokes, atol=1e-11)
+    assert np.max(np.abs(np.asarray(zero) - np.asarray(sim.data.strokes))) > 1e-6  # the effect is visible
+
+
+def test_whitener_inverts_the_pose_noise_covariance(model):
+    rng = np.random.default_rng(1)
+    poses = rng.uniform(-1, 1, (5, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
+    data = sj.make_calibration_data(np.zeros((5, 6)), poses)
+    w = np.asarray(model.whitener(model.nominal, data))
+    h = 1e-6
+    g = sj.nominal_geometry()
+    jac = np.stack([(np.asarray(sj.inverse_kinematics(g, poses + h * np.eye(6)[k]))
+                     - np.asarray(sj.inverse_kinematics(g, poses - h * np.eye(6)[k]))) / (2 * h) for k in range(6)], -1)
+    sig = np.array([0.1e-3] * 3 + [0.1 * sj.ARCSEC] * 3)
+    cov = np.einsum("mik,k,mjk->mij", jac, sig**2, jac)
+    np.testing.assert_allclose(np.einsum("mij,mjk,mlk->mil", w, cov, w), np.broadcast_to(np.eye(6), (5, 6, 6)),
+                               atol=1e-6)
+
+
+# ---------------------------------------------------------------- statistics
+
+
+def test_distribution_tails_match_scipy():
+    for x, k in ((3.0, 2), (250.0, 240), (1e-3, 6)):
+        assert wf.chi2_sf(x, k) == pytest.approx(scipy.stats.chi2.sf(x, k), rel=1e-9)
+    for x, d1, d2 in ((2.0, 6, 100), (0.5, 1, 10), (1.2, 300, 700)):
+        assert wf.f_sf(x, d1, d2) == pytest.approx(scipy.stats.f.sf(x, d1, d2), rel=1e-8)
+
+
+def test_heldout_statistic_is_chi2_with_n_test_dof_under_a_linear_model():
+    """Monte Carlo of the predictive χ²: fit a linear model on training noise, score held-out
+    noise; mean n_te and variance 2 n_te (without the parameter term the mean would be
+    n_te + tr(A_te C A_teᵀ))."""
+    rng = np.random.default_rng(2)
+    n_tr, n_te, p = 60, 30, 20
+    a_tr, a_te = rng.standard_normal((n_tr, p)), rng.standard_normal((n_te, p))
+    stats = []
+    for _ in range(4000):
+        e_tr, e_te = rng.standard_normal(n_tr), rng.standard_normal(n_te)
+        u_hat = np.linalg.lstsq(a_tr, e_tr, rcond=None)[0]
+        stats.append(wf._heldout_chi2(e_te - a_te @ u_hat, a_tr, a_te))
+    stats = np.asarray(stats)
+    assert abs(stats.mean() - n_te) < 4 * np.sqrt(2 * n_te / len(stats))
+    assert abs(stats.var() / (2 * n_te) - 1) < 0.1
+    assert abs(np.mean(stats > scipy.stats.chi2.ppf(0.95, n_te)) - 0.05) < 0.015
+
+
+def test_absorption_of_spanned_and_orthogonal_columns():
+    rng = np.random.default_rng(3)
+    g = rng.standard_normal((50, 8))
+    inside = g @ rng.standard_normal((8, 3))
+    ab = dc.absorption(g, inside)
+    assert ab.completely_absorbed and ab.absorbed_fraction == pytest.approx(1.0) and max(ab.sines) < 1e-7
+    q, _ = np.linalg.qr(g, mode="complete")
+    outside = q[:, 8:11] * np.array([1.0, 5.0, 0.1])
+    ab = dc.absorption(g, outside)
+    assert ab.identifiable_rank == 3 and ab.absorbed_fraction == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(ab.sines, 1.0, atol=1e-12)
+
+
+def test_where_analysis_flags_a_dependence():
+    rng = np.random.default_rng(4)
+    x = rng.uniform(17, 23, (80, 1)) * np.ones((1, 6))
+    res = rng.standard_normal((80, 6))
+    res[:, 2] += 2.0 * (x[:, 2] - 20)
+    out = dc.where_analysis(res, {"temperature_C": x}, [f"leg{i}" for i in range(1, 7)], 0.05)
+    assert out["flags"][0]["output"] == "leg3" and out["flags"][0]["p_value"] < 1e-20
+    assert all(f["p_value"] > 1e-4 for f in out["flags"][1:])
+    assert out["factors"]["temperature_C"]["slope"][2] == pytest.approx(2.0, abs=0.2)
+    r, p = scipy.stats.pearsonr(x[:, 0], res[:, 0])
+    assert out["factors"]["temperature_C"]["correlation"][0] == pytest.approx(r)
+    assert out["factors"]["temperature_C"]["p_value"][0] == pytest.approx(p, rel=1e-6)
+
+
+# ---------------------------------------------------------------- the workflow names the hidden effect
+
+
+def test_no_effect_is_not_named(reports):
+    rep = reports[None]
+    assert rep.named_effect == "none" and rep.gap_after == rep.gap_before
+    assert rep.gap_before < 1.3 * rep.noise_floor
+
+
+@pytest.mark.parametrize("effect", dc.EFFECT_NAMES)
+def test_hidden_effect_is_named(reports, hidden, effect):
+    rep = reports[effect]
+    assert rep.detected and rep.detect_p_value < 1e-6
+    # zero_offset and tracker_misalignment have the same signature modulo the geometry (see
+    # README): the data may name either, but must then list the other as indistinguishable.
+    assert rep.named_effect == effect or effect in rep.indistinguishable_from
+    assert len(rep.indistinguishable_from) <= 1
+    assert rep.gap_before > 1.5 * rep.noise_floor
+    assert rep.gap_after < 1.3 * rep.noise_floor_predictive
+
+
+def test_indistinguishable_pair_is_reported(reports):
+    rep = reports["tracker_misalignment"]
+    other = {"tracker_misalignment", "zero_offset"} - {rep.named_effect}
+    assert rep.indistinguishable_from == sorted(other)
+
+
+def test_fitted_effect_parameters_recover_the_truth(reports, hidden):
+    """Backlash is nearly orthogonal to the geometry: its fitted widths must be the hidden
+    ones within a few standard errors (σ_b ≈ 2·σ_q/√m ≈ 0.1 µm here)."""
+    rep, truth = reports["backlash"], hidden["backlash"].truth
+    fitted = np.asarray(rep.fitted.thetas[0])
+    np.testing.assert_allclose(fitted / sj.UM, truth.theta / sj.UM, atol=0.25)
+
+
+def test_augmented_model_improves_true_control(reports, hidden):
+    sim, rep = hidden["stroke_scale"], reports["stroke_scale"]
+    rng = np.random.default_rng(5)
+    targets = rng.uniform(-1, 1, (20, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
+    cond = dc.random_conditions(rng, 20)
+    data = sj.make_calibration_data(np.zeros((20, 6)), targets, cond.directions, cond.temperature, cond.time)
+    before = dc.true_control_error(sim.truth, np.asarray(rep.base_fitted.commanded(data)), targets, cond)
+    after = dc.true_control_error(sim.truth, np.asarray(rep.fitted.commanded(data)), targets, cond)
+    assert np.sqrt(np.mean(after[:, :3] ** 2)) < 0.3 * np.sqrt(np.mean(before[:, :3] ** 2))
+
+
+def test_commanded_strokes_of_backlash_model(reports):
+    fm = reports["backlash"].fitted
+    targets = np.zeros((2, 6))
+    dirs = np.array([[1.0] * 6, [-1.0] * 6])
+    data = sj.make_calibration_data(np.zeros((2, 6)), targets, directions=dirs)
+    q = np.asarray(fm.commanded(data))
+    b = np.asarray(fm.thetas[0])
+    np.testing.assert_allclose(q, 0.5 * b * dirs, atol=1e-15)  # IK(zero pose) = 0 exactly
+    with pytest.raises(ValueError, match="directions"):
+        fm.commanded(sj.make_calibration_data(np.zeros((2, 6)), targets))
+
+
+def test_report_json_contract(reports):
+    d = reports["drift"].to_dict()
+    for key in ("detected", "named_effect", "indistinguishable_from", "ranking", "gap_before", "gap_after"):
+        assert key in d
+    assert all("effect" in r and "score" in r for r in d["ranking"])
+    assert d["ranking"][0]["effect"] == "drift"
+    json.dumps(d)
+
+
+def test_residual_plots(reports, tmp_path):
+    paths = dc.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["temperature_C", "direction"])
+    assert sorted(p.split("residuals_")[-1] for p in paths) == ["direction.png", "temperature_C.png"]
+    assert all((tmp_path / p.split("/")[-1]).stat().st_size > 1000 for p in paths)
+    with pytest.raises(ValueError, match="unknown factor"):
+        dc.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["humidity"])
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def test_missing_columns_skip_candidates(model, hidden):
+    d = hidden["stroke_scale"].data
+    bare = sj.make_calibration_data(d.strokes, d.poses, temperature=d.temperature)
+    chosen, skipped = dc.select_effects(model, bare, 28)
+    assert {s["effect"] for s in skipped} == {"backlash", "drift"}
+    assert all("lack" in s["reason"] for s in skipped)
+    assert {e.name for e in chosen} == set(dc.EFFECT_NAMES) - {"backlash", "drift"}
+    _, skipped = dc.select_effects(model, d, 8)  # 48 observations: 36 + 12 + 6 > 48 for the tilt only
+    assert [s["effect"] for s in skipped] == ["actuator_tilt"] and "too few" in skipped[0]["reason"]
+
+
+def test_too_few_poses_is_a_clear_error(model, hidden):
+    small = hidden[None].data.take(np.arange(8))
+    with pytest.raises(ValueError, match="training rows"):
+        dc.diagnose(small, model)
+    with pytest.raises(ValueError, match="unknown effect"):
+        dc.diagnose(hidden[None].data, model, effects=["warp_drive"])
+    with pytest.raises(ValueError, match="singular"):
+        dc.pss_model(sj.nominal_geometry(), sigma_um=0.0)
+
+
+def test_register_effect_validates():
+    with pytest.raises(ValueError, match="n_params"):
+        dc.register_effect("other-model", "x", n_params=0, scale=1.0)
+    with pytest.raises(ValueError, match="scale"):
+        dc.register_effect("other-model", "x", n_params=2, scale=(1.0, -1.0))
+    with pytest.raises(ValueError, match="no effect"):
+        dc.get_effect("6-pss", "nope")
+
+
+# ---------------------------------------------------------------- command line and files
+
+
+def _parser():
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers(dest="command", required=True)
+    dc.add_diagnose_parser(sub)
+    return ap
+
+
+def test_cli_simulate_effect_then_diagnose(tmp_path):
+    csv, out, model_json = tmp_path / "d.csv", tmp_path / "r.json", tmp_path / "m.json"
+    ap = _parser()
+    args = ap.parse_args(["simulate-effect", "--out", str(csv), "--effect", "drift", "--magnitude", "5",
+                          "--seed", "11", "--n-random", str(N_RANDOM), "--no-plan"])
+    assert args.func(args) == 0
+    args = ap.parse_args(["diagnose", str(csv), "--json", str(out), "--seed", str(SEED), "--out-model",
+                          str(model_json)])
+    assert args.func(args) == 0
+    res = json.loads(out.read_text())
+    assert res["named_effect"] == "drift" and res["detected"] is True
+    assert res["gap_after"] < res["gap_before"] and res["skipped"] == []
+    fm = dc.load_fitted_model(model_json)
+    assert [e.name for e in fm.effects] == ["drift"]
+    data = sj.read_csv(csv)
+    np.testing.assert_allclose(res["augmented_model"]["effects"][0]["params"],
+                               np.asarray(fm.thetas[0]) * 3600 / sj.UM, rtol=1e-12)
+    assert np.all(np.isfinite(np.asarray(fm.commanded(data))))
