@@ -37,6 +37,16 @@ from ._geometry import (
     rod_lengths as rod_lengths,
     save_geometry as save_geometry,
 )
+from ._identifiability import (
+    IdentifiabilityReport as IdentifiabilityReport,
+    PosePlan as PosePlan,
+    calibration_uncertainty as calibration_uncertainty,
+    control_error_sensitivity as control_error_sensitivity,
+    identifiability_report as identifiability_report,
+    identification_jacobian as identification_jacobian,
+    plan_poses_optimal as plan_poses_optimal,
+    predicted_control_error_std as predicted_control_error_std,
+)
 from ._io import read_csv as read_csv, write_csv as write_csv
 from ._kinematics import (
     FKSolution as FKSolution,

@@ -68,6 +68,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
     m = data.n_poses
+    from ._identifiability import calibration_uncertainty
+
+    unc = calibration_uncertainty(geometry_from_params(params, nominal.v0), data.poses, args.sigma_um,
+                                  args.sigma_arcsec)
     out = {
         "method": args.method,
         "params": params.tolist(),
@@ -80,6 +84,13 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         "in_box": bool(np.all((params >= np.asarray(problem.lower)) & (params <= np.asarray(problem.upper)))),
         "half_width_mm": args.half_width,
         "seed": args.seed,
+        "param_std": np.asarray(unc["param_std"]).tolist(),
+        "identification_rank": int(unc["rank"]),
+        "identification_condition_number": float(unc["condition_number"]),
+        "predicted_control_error_std_max": dict(
+            zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
+                np.max(unc["control_error_std"], axis=0).tolist(), strict=True)
+        ),
     }
     print(
         f"{args.method}: S = {out['cost']:.6g} mm² (rms stroke residual {out['rms_residual_um']:.4g} µm) "

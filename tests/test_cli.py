@@ -21,6 +21,8 @@ def test_simulate_then_calibrate(tmp_path):
         assert key in res
     assert res["method"] == "lm" and len(res["params"]) == 36
     assert res["cost"] < 1e-18
+    std = np.asarray(res["param_std"])
+    assert std.shape == (36,) and np.all(std > 0) and np.all(np.isfinite(std))
     np.testing.assert_array_equal(sj.load_geometry(geo).params, res["params"])
 
 
