@@ -8,6 +8,12 @@ The workflow is generic over :class:`AbstractDiscrepancyModel`; the 6-PSS calibr
 from . import _effects as _effects  # registers the 6-PSS candidates
 from ._cli import add_diagnose_parser as add_diagnose_parser
 from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
+from ._fast import (
+    FastModel as FastModel,
+    fast_model as fast_model,
+    fast_responses as fast_responses,
+    simulate_fast_measurement as simulate_fast_measurement,
+)
 from ._hidden import (
     EFFECT_NAMES as EFFECT_NAMES,
     Conditions as Conditions,
