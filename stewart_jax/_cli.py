@@ -102,6 +102,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             json.dump(out, f, indent=2)
     if args.out_geometry:
         save_geometry(geometry_from_params(params, nominal.v0), args.out_geometry)
+    if args.plot:
+        from . import plotting
+        from ._calibration import stroke_residuals
+
+        before = np.asarray(stroke_residuals(nominal.params, data, nominal.v0)).reshape(-1, 6) * 1e3
+        after = np.asarray(stroke_residuals(result.params, data, nominal.v0)).reshape(-1, 6) * 1e3
+        plotting.show(plotting.plot_stroke_residuals({"nominal": before, f"calibrated ({args.method})": after},
+                                                     sigma_um=args.sigma_um), args.plot)
     if not args.json:
         print(json.dumps(out))
     return 0 if int(result.status) != 2 else 1
@@ -133,6 +141,14 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.json:
         with open(args.json, "w") as f:
             json.dump(result, f, indent=2)
+    if args.plot:
+        from . import plotting
+        from ._study import PAPER_TABLE2
+
+        rows = {k: r["calibration"] for k, r in result["rows"].items()}
+        paper = PAPER_TABLE2 if args.plan == "paper8" else None
+        plotting.show(plotting.plot_table_comparison(rows, paper=paper, title=f"{args.plan}, {args.trials} trials"),
+                      args.plot)
     return 0
 
 
@@ -169,6 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-evaluations", type=int, help="objective-evaluation budget (metaheuristics)")
     p.add_argument("--max-steps", type=int, help="iteration budget (LM)")
     p.add_argument("--out-geometry", help="write the calibrated geometry as JSON")
+    p.add_argument("--plot", metavar="OUT.png", help="stroke residuals before/after calibration")
     p.set_defaults(func=_cmd_calibrate)
 
     p = sub.add_parser("study", help="the seed-000 simulation study (Table 2) over many seeds")
@@ -183,6 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--chunk", type=int, help="trials per chunk (progress; checkpoint granularity)")
     p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume")
     p.add_argument("--json", help="write the full result as JSON")
+    p.add_argument("--plot", metavar="OUT.png", help="max control error per method beside the paper's Table 2")
     p.set_defaults(func=_cmd_study)
 
     from .discrepancy._cli import add_diagnose_parser

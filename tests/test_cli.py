@@ -15,7 +15,10 @@ def test_simulate_then_calibrate(tmp_path):
     np.testing.assert_allclose(sj.inverse_kinematics(sj.actual_geometry(), data.poses), data.strokes, atol=1e-9)
     out = tmp_path / "c.json"
     geo = tmp_path / "g.json"
-    assert main(["calibrate", str(csv), "--method", "lm", "--json", str(out), "--out-geometry", str(geo)]) == 0
+    png = tmp_path / "r.png"
+    assert main(["calibrate", str(csv), "--method", "lm", "--json", str(out), "--out-geometry", str(geo),
+                 "--plot", str(png)]) == 0
+    assert png.stat().st_size > 1000
     res = json.loads(out.read_text())
     for key in ("method", "params", "cost", "n_evaluations", "seconds"):
         assert key in res

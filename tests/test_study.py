@@ -30,7 +30,9 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path, monkeypatch):
         study.run_study(("lm",), n_trials=4, chunk_size=2, checkpoint=ck, sigma_um=0.5)
 
 
-def test_study_command_prints_table(capsys):
-    assert main(["study", "--methods", "lm", "--trials", "2"]) == 0
+def test_study_command_prints_table(capsys, tmp_path):
+    png = tmp_path / "t.png"
+    assert main(["study", "--methods", "lm", "--trials", "2", "--plot", str(png)]) == 0
+    assert png.stat().st_size > 1000
     out = capsys.readouterr().out
     assert "| LM (optimistix) |" in out and "paper: VSA-SMCS" in out
