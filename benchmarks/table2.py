@@ -22,7 +22,6 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-import numpy as np  # noqa: E402
 from _common import RESULTS, write_results  # noqa: E402
 
 import stewart_jax  # noqa: E402,F401
@@ -32,34 +31,14 @@ CONVERGENCE_METHODS = ("cs", "smcs", "vsa-smcs")
 
 
 def convergence_plot(result: dict, path: str) -> None:
-    import matplotlib
+    from stewart_jax import plotting
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for method in CONVERGENCE_METHODS:
-        label = METHOD_LABELS[method]
-        if label not in result["rows"]:
-            continue
-        h = result["rows"][label]["history"]
-        n = np.asarray(h["evaluations_median"])
-        ax.plot(n, h["cost_median"], label=f"{label} (median)")
-        ax.fill_between(n, h["cost_p10"], h["cost_p90"], alpha=0.2)
-    for label in ("LM (optimistix)", "VSA-SMCS+LM"):
-        if label in result["rows"]:
-            ax.axhline(result["rows"][label]["cost_median"], ls="--", lw=1, color="k" if "LM (" in label else "C3",
-                       label=f"{label}: median final S")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("objective evaluations")
-    ax.set_ylabel("best S (mm²)")
-    ax.set_title(f"Convergence on the seed-000 protocol ({result['plan']}, {result['n_trials']} seeds, band 10–90 %)")
-    ax.legend(fontsize=8)
-    ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    histories = {METHOD_LABELS[m]: result["rows"][METHOD_LABELS[m]]["history"]
+                 for m in CONVERGENCE_METHODS if METHOD_LABELS[m] in result["rows"]}
+    reference = {f"{label}: median final S": result["rows"][label]["cost_median"]
+                 for label in ("LM (optimistix)", "VSA-SMCS+LM") if label in result["rows"]}
+    title = f"Convergence on the seed-000 protocol ({result['plan']}, {result['n_trials']} seeds)"
+    plotting.show(plotting.plot_convergence(histories, reference=reference, title=title), path)
 
 
 def main(argv=None) -> int:

@@ -83,6 +83,16 @@ def show(fig: Figure, path: str | os.PathLike[str] | None = None, *, dpi: int = 
     return fig
 
 
+def _finish(fig: Figure, ax, title: str | None) -> Figure:
+    """Grid, legend, optional title, tight layout: the common end of the single-axes plots."""
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 # ------------------------------------------------------------------------- pose errors
 
 
@@ -233,12 +243,7 @@ def plot_convergence(
     ax.set_yscale("log")
     ax.set_xlabel("objective evaluations")
     ax.set_ylabel("best S (mm²)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return fig
+    return _finish(fig, ax, title)
 
 
 # ------------------------------------------------------------------------- identifiability
@@ -264,12 +269,7 @@ def plot_singular_values(
             ax.axhline(rtol * s[0], color=color, ls=":", lw=1, label=f"{label}: rank threshold {rtol:g}·σ_max")
     ax.set_xlabel("index of singular value")
     ax.set_ylabel("singular value (dimensionless, columns scaled to unit norm)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return fig
+    return _finish(fig, ax, title)
 
 
 def plot_parameter_std(
@@ -294,12 +294,7 @@ def plot_parameter_std(
     ax.set_xticks(np.arange(36), names, rotation=90, fontsize=7)
     ax.set_xlabel("parameter (Ac_i then Bc_i, x/y/z)")
     ax.set_ylabel("µm")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    return fig
+    return _finish(fig, ax, title)
 
 
 def plot_stroke_residuals(residuals_um: Any, *, sigma_um: float | None = None, title: str | None = None) -> Figure:

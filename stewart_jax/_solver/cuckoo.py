@@ -72,6 +72,15 @@ def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
     return population_state(x, evaluate(fn, x), n_nests, 0)
 
 
+def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, beta: float, pa: float
+                  ) -> PopulationState:
+    """One CS generation: Lévy flights then discovery (``2·n_nests`` calls), generation + 1."""
+    rnd = cs_randoms(key, *state.nests.shape)
+    state = levy_flight_phase(fn, state, lower, upper, rnd, alpha, beta)
+    state = discovery_phase(fn, state, lower, upper, rnd, pa)
+    return state._replace(generation=state.generation + 1)
+
+
 class CuckooSearch(AbstractSolver):
     """Cuckoo search (Yang & Deb 2009).
 
@@ -95,10 +104,7 @@ class CuckooSearch(AbstractSolver):
         return init_population(fn, lower, upper, key, self.n_nests)
 
     def step(self, fn, state, lower, upper, key):
-        rnd = cs_randoms(key, *state.nests.shape)
-        state = levy_flight_phase(fn, state, lower, upper, rnd, self.alpha, self.beta)
-        state = discovery_phase(fn, state, lower, upper, rnd, self.pa)
-        return state._replace(generation=state.generation + 1)
+        return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
 
     def terminate(self, state):
         return state.best_f < self.epsilon

@@ -12,7 +12,7 @@ clip their own trial points to Ω.
 from __future__ import annotations
 
 from ._driver import AbstractSolver, population_state
-from .cuckoo import cs_randoms, discovery_phase, init_population, levy_flight_phase
+from .cuckoo import cs_generation, init_population
 from .levy import BETA
 from .simplex import SimplexCoefficients, simplex_on_worst
 
@@ -48,10 +48,7 @@ class SMCS(AbstractSolver):
                                       self.coefficients)
         state = population_state(nests, fit, state.n_evals + 3 * self.n_worst,
                                  state.generation, state)
-        rnd = cs_randoms(key, *state.nests.shape)
-        state = levy_flight_phase(fn, state, lower, upper, rnd, self.alpha, self.beta)
-        state = discovery_phase(fn, state, lower, upper, rnd, self.pa)
-        return state._replace(generation=state.generation + 1)
+        return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
 
     def terminate(self, state):
         return state.best_f < self.epsilon
