@@ -154,7 +154,8 @@ def main(argv=None) -> int:
         single = lambda u: float(cost(np.asarray(u)[None])[0])  # noqa: E731
         problem = {"obj_func": single, "bounds": FloatVar(lb=lo.tolist(), ub=hi.tolist()), "minmax": "min",
                    "log_to": None}
-        model = CSA.OriginalCSA(epoch=max(gens // 4, 5), pop_size=37, p_a=0.25)
+        # enough epochs for a stable rate (~2 evaluations per nest and epoch)
+        model = CSA.OriginalCSA(epoch=40 if args.quick else 200, pop_size=37, p_a=0.25)
         t0 = time.perf_counter()
         model.solve(problem, seed=0)
         add("mealpy OriginalCSA (pop 37)", model.nfe_counter, time.perf_counter() - t0)

@@ -20,16 +20,15 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import math
 from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jax import lax
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
 
+from ._random import draw as draw
 from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
 
 
@@ -45,38 +44,28 @@ def nan_to_inf(fn):
 
 def evaluate(fn, xs: Float[Array, "n d"]) -> Float[Array, " n"]:
     """``fn`` over a population, vmapped; NaN → +inf."""
-    return jax.vmap(nan_to_inf(fn))(xs)
+    return jax.vmap(nan_to_inf(fn))(materialize(xs))
+
+
+def materialize(x):
+    """``x``, computed into memory before any use.
+
+    NOTE: XLA:CPU fuses element-wise producers into their consumers and, for the objective,
+    repeats them per pose and per leg: a Lévy candidate ``x + α·sp·(x − x_best)·z`` whose
+    Mantegna step (``erfinv``, ``log``, ``pow``) is fused into the inverse kinematics is
+    recomputed ~50 times per parameter, which made CS ten times slower than its objective.
+    ``lax.optimization_barrier`` is removed before fusion on CPU; the operand of a while loop
+    whose trip count XLA cannot prove is not, so ``x`` goes through a loop that runs zero
+    times.
+    """
+    zero = jnp.minimum(jnp.max(jnp.abs(x)), 0.0) > 0.0  # False, opaque to the compiler
+    return lax.while_loop(lambda c: c[1], lambda c: (c[0] + c[0], c[1]), (x, zero))[0]
 
 
 def uniform_in_box(key: PRNGKeyArray, shape: tuple[int, ...], lower, upper) -> Array:
     """Points uniform in the box ``[lower, upper]`` (broadcast over the leading axes)."""
     u = draw(key, u=("uniform", shape))["u"]
     return lower + u * (upper - lower)
-
-
-def draw(key: PRNGKeyArray, **specs: tuple[str, tuple[int, ...]]) -> dict[str, Array]:
-    """All the random numbers of one step from ONE generator call, carved into named arrays:
-    ``draw(key, z=("normal", (n, d)), r=("uniform", (n,)))``.
-
-    NOTE: each threefry call site costs about a second of XLA compilation on CPU (more under
-    ``vmap``), and a generation needs several kinds of random numbers; drawing them all at
-    once keeps compilation short. Normals are ``√2·erfinv(w)``, uniforms ``(w + 1)/2``, with
-    ``w ~ U(−1, 1)`` excluding −1 (as ``jax.random.normal`` does).
-    """
-    sizes = {name: math.prod(shape) for name, (_, shape) in specs.items()}
-    lo = float(np.nextafter(-1.0, 0.0))
-    w = jax.random.uniform(key, (sum(sizes.values()),), jnp.float64, minval=lo, maxval=1.0)
-    out, start = {}, 0
-    for name, (kind, shape) in specs.items():
-        chunk = w[start:start + sizes[name]].reshape(shape)
-        start += sizes[name]
-        if kind == "normal":
-            out[name] = np.sqrt(2.0) * jax.scipy.special.erfinv(chunk)
-        elif kind == "uniform":
-            out[name] = 0.5 * (chunk + 1.0)
-        else:
-            raise ValueError(f"unknown kind {kind!r}")
-    return out
 
 
 def greedy(x, f, x_new, f_new):

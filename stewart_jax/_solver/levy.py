@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import math
 
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, PRNGKeyArray
+
+from ._random import draw
 
 BETA = 1.5
 """The Lévy exponent of seed 000 (and of Yang & Deb 2009)."""
@@ -34,14 +35,11 @@ def mantegna_sigma(beta: float = BETA) -> float:
     return (num / den) ** (1.0 / beta)
 
 
-def mantegna_step(
-    key: PRNGKeyArray, shape: tuple[int, ...], beta: float = BETA, dtype=jnp.float64
-) -> Float[Array, "..."]:
-    """Independent Lévy steps ``u / |v|^(1/β)`` of the given shape (seed 000 eq. 10)."""
-    ku, kv = jax.random.split(key)
-    u = mantegna_sigma(beta) * jax.random.normal(ku, shape, dtype)
-    v = jax.random.normal(kv, shape, dtype)
-    return u / jnp.abs(v) ** (1.0 / beta)
+def mantegna_step(key: PRNGKeyArray, shape: tuple[int, ...], beta: float = BETA) -> Float[Array, "..."]:
+    """Independent Lévy steps ``u / |v|^(1/β)`` of the given shape (seed 000 eq. 10), from the
+    optimisers' generator (:func:`stewart_jax._solver._random.draw`; float32)."""
+    rnd = draw(key, zu=("normal", shape), zv=("normal", shape))
+    return mantegna_from_normals(rnd["zu"], rnd["zv"], beta)
 
 
 def mantegna_from_normals(z_u, z_v, beta: float = BETA):
