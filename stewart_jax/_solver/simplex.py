@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._driver import AbstractSolver, nan_to_inf
+from ._driver import AbstractSolver, evaluate, nan_to_inf
 
 
 class SimplexCoefficients(eqx.Module):
@@ -73,7 +73,6 @@ def simplex_on_worst(
         raise ValueError(f"n_worst must lie in [1, {n - 1}] for {n} nests, got {n_worst}")
     a, g, r, s = (coefficients.reflection, coefficients.expansion, coefficients.contraction,
                   coefficients.shrink)
-    fn = nan_to_inf(fn)
     order = jnp.argsort(fitness)
     keep, worst = order[: n - n_worst], order[n - n_worst:]
     centroid = jnp.mean(nests[keep], axis=0)
@@ -81,26 +80,24 @@ def simplex_on_worst(
     f_kept_worst = fitness[keep[-1]]
     bound = (lambda x: jnp.clip(x, lower, upper)) if lower is not None else (lambda x: x)
 
-    def one(x_w, f_w):
-        x_r = bound(centroid + a * (centroid - x_w))
-        f_r = fn(x_r)
-        expand = f_r < f_best
-        outside = (f_r >= f_kept_worst) & (f_r < f_w)
-        inside = f_r >= f_w
-        x_2 = jnp.where(expand, centroid + g * (x_r - centroid),
-                        jnp.where(outside, centroid + r * (x_r - centroid),
-                                  centroid + r * (x_w - centroid)))
-        x_2 = bound(x_2)
-        f_2 = fn(x_2)
-        x_s = bound(x_best + s * (x_w - x_best))
-        f_s = fn(x_s)
-        accept_reflection = (~expand & ~outside & ~inside) | (expand & (f_2 >= f_r))
-        accept_second = (expand & (f_2 < f_r)) | (outside & (f_2 <= f_r)) | (inside & (f_2 < f_w))
-        x = jnp.where(accept_reflection, x_r, jnp.where(accept_second, x_2, x_s))
-        f = jnp.where(accept_reflection, f_r, jnp.where(accept_second, f_2, f_s))
-        return x, f
-
-    x_new, f_new = jax.vmap(one)(nests[worst], fitness[worst])
+    x_w, f_w = nests[worst], fitness[worst]
+    # reflections and shrink points do not depend on each other: one evaluation for both
+    x_r = bound(centroid + a * (centroid - x_w))
+    x_s = bound(x_best + s * (x_w - x_best))
+    f_rs = evaluate(fn, jnp.concatenate([x_r, x_s]))
+    f_r, f_s = f_rs[:n_worst], f_rs[n_worst:]
+    expand = f_r < f_best
+    outside = (f_r >= f_kept_worst) & (f_r < f_w)
+    inside = f_r >= f_w
+    x_2 = jnp.where(expand[:, None], centroid + g * (x_r - centroid),
+                    jnp.where(outside[:, None], centroid + r * (x_r - centroid),
+                              centroid + r * (x_w - centroid)))
+    x_2 = bound(x_2)
+    f_2 = evaluate(fn, x_2)
+    accept_reflection = (~expand & ~outside & ~inside) | (expand & (f_2 >= f_r))
+    accept_second = (expand & (f_2 < f_r)) | (outside & (f_2 <= f_r)) | (inside & (f_2 < f_w))
+    x_new = jnp.where(accept_reflection[:, None], x_r, jnp.where(accept_second[:, None], x_2, x_s))
+    f_new = jnp.where(accept_reflection, f_r, jnp.where(accept_second, f_2, f_s))
     return nests.at[worst].set(x_new), fitness.at[worst].set(f_new)
 
 
