@@ -112,8 +112,7 @@ def _simulate_batch(keys, nominal, actual, plan, sigma_um, sigma_arcsec, tracker
     return jax.vmap(one)(keys)
 
 
-@jax.jit
-def _max_errors(params, actual, targets, validation):
+def _max_errors_local(params, actual, targets, validation):
     """Max |control error| per component at the calibration and validation poses."""
 
     def one(p, t, v):
@@ -126,13 +125,55 @@ def _max_errors(params, actual, targets, validation):
     return jax.vmap(one)(params, targets, validation)
 
 
-def _shard(tree, n_devices: int):
-    """Place every array's leading (trial) axis across the first ``n_devices`` devices."""
+def _per_device(fn: Callable, n_devices: int, replicated: tuple[int, ...] = ()) -> Callable:
+    """``fn`` (vmapped over the leading trial axis of its arguments) run by each of the first
+    ``n_devices`` local devices on its own contiguous block of trials; the outputs are
+    concatenated back in trial order (NumPy arrays). Arguments at the positions in
+    ``replicated`` are copied whole to every device instead of split.
+
+    Each block is an independent single-device program, dispatched asynchronously, so the
+    devices run concurrently with no collective between them. (Placing the trial axis with a
+    ``NamedSharding`` and letting ``jit`` partition the program instead turns the batched
+    ``while_loop`` predicates of the solvers — "is any trial still running" — into
+    cross-device all-reduces; with 2 host devices on a 2-core CPU, LM hung for good at ≥ 3
+    trials per device, XLA reporting an all-reduce rendezvous that only one device joined.
+    ``shard_map``, which would avoid the collectives, rejects optimistix's loops under its
+    varying-axis checks, and breaks lineax's structure checks without them.)
+    The block length must divide by ``n_devices``: the caller pads. Build it once per
+    method so that all chunks reuse the compilation (one per device and block shape).
+    """
+    jitted = jax.jit(fn)
     if n_devices <= 1:
-        return tree
-    mesh = jax.sharding.Mesh(np.array(jax.devices()[:n_devices]), ("trials",))
-    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("trials"))
-    return jax.device_put(tree, sharding)
+        return jitted
+    devices = jax.local_devices()[:n_devices]
+
+    def run(*args):
+        n = jax.tree.leaves(args[0])[0].shape[0]
+        if n % n_devices:
+            raise ValueError(f"{n} trials do not split evenly over {n_devices} devices")
+        size = n // n_devices
+        outs = []
+        for d, device in enumerate(devices):
+            block = [
+                a if i in replicated else jax.tree.map(lambda x, d=d: x[d * size:(d + 1) * size], a)
+                for i, a in enumerate(args)
+            ]
+            outs.append(jitted(*jax.device_put(block, device)))
+        return jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *outs)
+
+    return run
+
+
+@functools.cache
+def _calibrator(method: str, options_json: str, n_devices: int) -> Callable:
+    """The batch calibrator of ``method`` over ``n_devices``, cached so that repeated studies
+    with the same settings reuse its compilation."""
+    return _per_device(_batch_calibrator(method, json.loads(options_json)), n_devices)
+
+
+@functools.cache
+def _max_errors_fn(n_devices: int) -> Callable:
+    return _per_device(_max_errors_local, n_devices, replicated=(1,))
 
 
 def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
@@ -145,11 +186,11 @@ def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
         keys, nominal, actual, config["plan"], config["sigma_um"], config["sigma_arcsec"],
         config["tracker"], config["half_width_mm"],
     )
-    problems, targets, validation, opt_keys = _shard((problems, targets, validation, opt_keys), n_devices)
     t0 = time.perf_counter()
     res = jax.block_until_ready(calibrate(problems, opt_keys))
     seconds = time.perf_counter() - t0
-    cal, val, ok = (np.asarray(x)[:n] for x in _max_errors(res.params, actual, targets, validation))
+    errors = _max_errors_fn(n_devices)(res.params, actual, targets, validation)
+    cal, val, ok = (np.asarray(x)[:n] for x in errors)
     return {
         "calibration": error_in_report_units(cal).tolist(),
         "validation": error_in_report_units(val).tolist(),
@@ -213,11 +254,12 @@ def run_study(
 
     ``chunk_size`` trials are computed at a time (default: all at once); with ``checkpoint``
     the finished chunks are saved after each one and skipped when the run is repeated.
-    ``n_devices > 1`` shards each chunk's trial axis over that many JAX devices.
+    ``n_devices > 1`` splits each chunk's trials into one block per local JAX device (the
+    chunk is padded to a multiple of ``n_devices``); the blocks run concurrently.
     """
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
-    if n_devices > len(jax.devices()):
-        raise ValueError(f"n_devices={n_devices} but JAX sees {len(jax.devices())} device(s)")
+    if n_devices > len(jax.local_devices()):
+        raise ValueError(f"n_devices={n_devices} but JAX sees {len(jax.local_devices())} local device(s)")
     nominal, actual = nominal_geometry(), actual_geometry()
     options = method_options or {}
     config = {
@@ -230,7 +272,7 @@ def run_study(
     chunks = _load_checkpoint(checkpoint, config)
     rows: dict[str, Any] = {}
     for method in [BEFORE, *methods]:
-        calibrate = _batch_calibrator(method, options.get(method, {}))
+        calibrate = _calibrator(method, json.dumps(options.get(method, {}), sort_keys=True), n_devices)
         done = chunks.setdefault(method, {})
         for start in range(0, n_trials, chunk):
             if str(start) in done:
