@@ -39,6 +39,8 @@ bench: bench-deps
 	$(BIN)/python benchmarks/table2.py
 	$(BIN)/python benchmarks/fast.py
 	$(BIN)/python benchmarks/discrepancy.py
+	$(BIN)/python benchmarks/identifiability.py
+	$(BIN)/python benchmarks/sharding.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info
