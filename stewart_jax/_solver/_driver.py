@@ -53,10 +53,10 @@ def materialize(x):
     NOTE: XLA:CPU fuses element-wise producers into their consumers and, for the objective,
     repeats them per pose and per leg: a Lévy candidate ``x + α·sp·(x − x_best)·z`` whose
     Mantegna step (``erfinv``, ``log``, ``pow``) is fused into the inverse kinematics is
-    recomputed ~50 times per parameter, which made CS ten times slower than its objective.
+    recomputed for every pose and leg, which made CS ten times slower than its objective.
     ``lax.optimization_barrier`` is removed before fusion on CPU; the operand of a while loop
     whose trip count XLA cannot prove is not, so ``x`` goes through a loop that runs zero
-    times.
+    times (its body must not be the identity: XLA removes such loops).
     """
     zero = jnp.minimum(jnp.max(jnp.abs(x)), 0.0) > 0.0  # False, opaque to the compiler
     return lax.while_loop(lambda c: c[1], lambda c: (c[0] + c[0], c[1]), (x, zero))[0]
