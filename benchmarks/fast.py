@@ -1,8 +1,9 @@
 """Benchmark of the FAST coupled simulation (seed 002): real-time factor of one jitted
 trajectory and throughput of a vmapped workspace map of Table-2 amplitudes.
 
-Usage: ``.venv/bin/python benchmarks/fast.py [--duration 2] [--map-n 10] [--repeats 5]``
-Writes ``benchmarks/results/fast.json`` and ``benchmarks/results/fast.md``.
+Usage: ``.venv/bin/python benchmarks/fast.py [--duration 2] [--map-n 10] [--repeats 5] [--pin-core 0]``
+Writes ``benchmarks/results/fast.json`` and ``benchmarks/results/fast.md`` (``fast_pinned.*``
+with ``--pin-core``).
 """
 
 from __future__ import annotations
@@ -96,7 +97,13 @@ def main(argv=None):
     ap.add_argument("--map-n", type=int, default=10, help="map is map-n x map-n positions")
     ap.add_argument("--map-duration", type=float, default=1.0)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--pin-core", type=int, default=None,
+                    help="run the whole process on this one CPU core (as a real-time controller "
+                    "thread would); results go to fast_pinned.{json,md}")
     args = ap.parse_args(argv)
+    if args.pin_core is not None:
+        # before JAX creates its CPU client: its worker threads inherit the affinity
+        os.sched_setaffinity(0, {args.pin_core})
     single = [single_trajectory(args.duration, args.dt, m, args.repeats) for m in ("verlet", "rk4")]
     wmap = workspace_map(args.map_n, args.map_duration, args.dt, max(1, args.repeats // 2))
     info = {
@@ -105,15 +112,18 @@ def main(argv=None):
         "cpu_count": os.cpu_count(), "load_average_1m_at_end": os.getloadavg()[0],
         "python": platform.python_version(), "jax": jax.__version__, "jaxlib": jaxlib.__version__,
         "numpy": np.__version__, "backend": jax.default_backend(),
+        "pinned_core": args.pin_core,
     }
+    name = "fast" if args.pin_core is None else "fast_pinned"
     out = {"machine": info, "single_trajectory": single, "workspace_map": wmap}
     os.makedirs(RESULTS, exist_ok=True)
-    with open(os.path.join(RESULTS, "fast.json"), "w") as f:
+    with open(os.path.join(RESULTS, f"{name}.json"), "w") as f:
         json.dump(out, f, indent=2)
     lines = [
         "# FAST coupled simulation benchmark (seed 002)", "",
         f"`{info['command']}` on {info['platform']}, {info['cpu_count']} CPUs "
-        f"(1-min load average at the end: {info['load_average_1m_at_end']:.1f}), "
+        f"(1-min load average at the end: {info['load_average_1m_at_end']:.1f}"
+        f"{'' if args.pin_core is None else f'; process pinned to core {args.pin_core}'}), "
         f"jax {info['jax']}, numpy {info['numpy']}, python {info['python']}.", "",
         "| integrator | dt (ms) | steps | compile (s) | run best / median (s) "
         "| real-time factor best / median | µs/step |",
@@ -131,7 +141,7 @@ def main(argv=None):
               f"({wmap['positions_per_s'] * wmap['duration_s']:.1f} simulated s per wall s); "
               f"x amplitude {wmap['amplitude_x_mm']['min']:.3f}–{wmap['amplitude_x_mm']['max']:.3f} mm, "
               f"min x correlation {wmap['correlation_x_min']:.4f}, all converged: {wmap['all_ok']}.", ""]
-    with open(os.path.join(RESULTS, "fast.md"), "w") as f:
+    with open(os.path.join(RESULTS, f"{name}.md"), "w") as f:
         f.write("\n".join(lines))
     print("\n".join(lines))
 
