@@ -133,6 +133,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     result = run_study(
         methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
         args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
+        n_devices=args.devices, first_trial=args.first_trial,
     )
     print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
     print(format_study_table(result, "calibration"))
@@ -199,6 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-evaluations", type=int, help="evaluation budget of the metaheuristics")
     p.add_argument("--chunk", type=int, help="trials per chunk (progress; checkpoint granularity)")
     p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume")
+    p.add_argument("--devices", type=int, default=1, help="split each chunk's trials over this many local JAX devices")
+    p.add_argument("--first-trial", type=int, default=0,
+                   help="run trials first..first+trials-1 of the seed's sequence (one range per host)")
     p.add_argument("--json", help="write the full result as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="max control error per method beside the paper's Table 2")
     p.set_defaults(func=_cmd_study)

@@ -7,9 +7,9 @@ calibrate with each method from the nominal parameters, and evaluate the control
 42 fresh validation poses. Report per component the median and 90th percentile over trials of
 the maximum absolute error — the paper's Table 2 reports one run's maximum.
 
-Every trial's randomness comes from its own key, ``jax.random.split(key(seed), n_trials)[i]``,
-so a trial's result does not depend on how the trials are chunked, sharded over devices or
-resumed. Long runs go in chunks, report progress, and can write a checkpoint after every
+Every trial's randomness comes from its own key, ``jax.random.fold_in(key(seed), i)``, so a
+trial's result does not depend on how the trials are chunked, split over devices or hosts
+(``first_trial``), or resumed. Long runs go in chunks, report progress, and can write a checkpoint after every
 chunk: an interrupted run restarted with the same checkpoint continues where it stopped.
 """
 
@@ -72,9 +72,12 @@ def _batch_calibrator(method: str, options: dict[str, Any]) -> Callable:
     return lambda problems, keys: calibrate_batch(problems, method, keys, **options)
 
 
-def trial_keys(seed: int, n_trials: int) -> jax.Array:
-    """One key per trial; trial ``i`` is the same whatever ``n_trials`` (≥ i) is."""
-    return jax.vmap(lambda i: jax.random.fold_in(jax.random.key(seed), i))(jnp.arange(n_trials))
+def trial_keys(seed: int, n_trials: int, first: int = 0) -> jax.Array:
+    """Keys of trials ``first … first + n_trials − 1``; trial ``i``'s key depends on ``seed`` and
+    ``i`` only."""
+    if first < 0:
+        raise ValueError(f"first trial must be >= 0, got {first}")
+    return jax.vmap(lambda i: jax.random.fold_in(jax.random.key(seed), i))(jnp.arange(first, first + n_trials))
 
 
 def simulate_trials(
@@ -244,6 +247,7 @@ def run_study(
     n_devices: int = 1,
     keep_trials: bool = False,
     log: Callable[[str], None] | None = None,
+    first_trial: int = 0,
 ) -> dict[str, Any]:
     """Run the Monte Carlo study; returns a JSON-ready dict (errors in µm and ″).
 
@@ -256,6 +260,12 @@ def run_study(
     the finished chunks are saved after each one and skipped when the run is repeated.
     ``n_devices > 1`` splits each chunk's trials into one block per local JAX device (the
     chunk is padded to a multiple of ``n_devices``); the blocks run concurrently.
+
+    ``first_trial`` runs trials ``first_trial … first_trial + n_trials − 1`` of the seed's
+    sequence, so that several processes or hosts can share one study: on a cluster, call
+    ``jax.distributed.initialize()`` in every process, run ``run_study(..., n_trials=k,
+    first_trial=jax.process_index() * k, n_devices=jax.local_device_count(),
+    keep_trials=True)`` and concatenate the ``per_trial_max`` lists in process order.
     """
     log = log or (lambda s: print(s, file=sys.stderr, flush=True))
     if n_devices > len(jax.local_devices()):
@@ -265,10 +275,10 @@ def run_study(
     config = {
         "plan": plan, "n_trials": n_trials, "seed": seed, "sigma_um": sigma_um,
         "sigma_arcsec": sigma_arcsec, "tracker": tracker, "half_width_mm": half_width,
-        "method_options": options,
+        "method_options": options, "first_trial": first_trial,
     }
     chunk = chunk_size or n_trials
-    keys = trial_keys(seed, n_trials)
+    keys = trial_keys(seed, n_trials, first_trial)
     chunks = _load_checkpoint(checkpoint, config)
     rows: dict[str, Any] = {}
     for method in [BEFORE, *methods]:

@@ -10,6 +10,7 @@ def test_trial_keys_do_not_depend_on_the_number_of_trials():
     a = jax.random.key_data(study.trial_keys(3, 5))
     b = jax.random.key_data(study.trial_keys(3, 2))
     np.testing.assert_array_equal(a[:2], b)
+    np.testing.assert_array_equal(a[3:], jax.random.key_data(study.trial_keys(3, 2, first=3)))
 
 
 def test_checkpoint_resume_skips_finished_chunks(tmp_path, monkeypatch):
@@ -19,6 +20,10 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path, monkeypatch):
     assert len(lm["calibration"]["per_trial_max"]) == 4
     # LM reaches the noise floor: ~0.3 µm control error at the calibration poses (see README).
     assert np.max(lm["calibration"]["per_trial_max"]) < 2.0
+    # a second host running trials 2-3 gets exactly the big run's trials 2-3
+    part = study.run_study(("lm",), n_trials=2, first_trial=2, keep_trials=True)["rows"]["LM (optimistix)"]
+    for name in ("calibration", "validation"):
+        np.testing.assert_array_equal(part[name]["per_trial_max"], lm[name]["per_trial_max"][2:])
 
     def fail(*args, **kwargs):
         raise AssertionError("a finished chunk was recomputed")
