@@ -15,8 +15,9 @@ the six legs on the upper platform, moved to the origin of C.
 NOTE (how the implicit dependence is solved): ``F_U`` (eq. 29) depends on the cabin's own
 accelerations ``(ẗ_C, ε_C)`` through eqs. 34, 47–50 and 52–53, and it depends on them
 *affinely* (positions and velocities fixed). The residual of eqs. 57–58 is therefore affine in
-``a = (ẗ_C, ε_C)``: one forward-mode Jacobian (6 tangents) and one 6×6 linear solve give the
-exact accelerations, ``a = -J⁻¹ r(0)``. No fixed-point iteration between the cable model and
+``a = (ẗ_C, ε_C)``: the residual at ``a = 0`` and at the six unit vectors gives ``J`` exactly
+(``J e_k = r(e_k) − r(0)``), and one 6×6 linear solve gives the exact accelerations,
+``a = -J⁻¹ r(0)``. No fixed-point iteration between the cable model and
 the Stewart model is needed (the paper's Fig. 5 iterates). The acceleration of B's origin is
 ``ẗ_B = ẗ_C + ε_C × (R_C t_B) + ω_C × (ω_C × R_C t_B)``; eq. 56 writes ``ẗ_B = ẗ_C``, which drops
 the lever arm ``C t_B`` (0.155 m).
