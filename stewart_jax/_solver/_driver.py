@@ -139,6 +139,29 @@ class AbstractSolver(eqx.Module):
         """The fewest and the most objective calls one :meth:`step` makes."""
 
 
+def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
+    """``n_nests`` nests uniform in Ω and their fitness (``n_nests`` calls)."""
+    x = uniform_in_box(key, (n_nests, lower.shape[-1]), lower, upper)
+    return population_state(x, evaluate(fn, x), n_nests, 0)
+
+
+class AbstractPopulationSolver(AbstractSolver):
+    """A population method (CS, SMCS, VSA-SMCS): ``n_nests`` nests uniform in Ω at init, and
+    stop once the best value falls below ``epsilon``."""
+
+    n_nests: eqx.AbstractVar[int]
+    epsilon: eqx.AbstractVar[float]
+
+    def init(self, fn, lower, upper, key):
+        return init_population(fn, lower, upper, key, self.n_nests)
+
+    def terminate(self, state):
+        return state.best_f < self.epsilon
+
+    def init_evaluations(self, n_dim):
+        return self.n_nests
+
+
 def n_steps_for_budget(solver: AbstractSolver, n_dim: int, max_evaluations: int) -> int:
     """The scan length that a budget of ``max_evaluations`` calls allows (at least 1):
     exact for the population methods, an upper bound where a step's cost varies."""

@@ -21,13 +21,12 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ._driver import (
-    AbstractSolver,
+    AbstractPopulationSolver,
     PopulationState,
     draw,
     evaluate,
     greedy,
     population_state,
-    uniform_in_box,
 )
 from .levy import BETA, mantegna_from_normals
 
@@ -66,12 +65,6 @@ def cs_randoms(key, n: int, d: int):
                 mask=("uniform", (n, d)), perm=("uniform", (2, n)), r=("uniform", (1,)))
 
 
-def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
-    """``n_nests`` nests uniform in Ω and their fitness (``n_nests`` calls)."""
-    x = uniform_in_box(key, (n_nests, lower.shape[-1]), lower, upper)
-    return population_state(x, evaluate(fn, x), n_nests, 0)
-
-
 def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, beta: float, pa: float
                   ) -> PopulationState:
     """One CS generation: Lévy flights then discovery (``2·n_nests`` calls), generation + 1."""
@@ -81,7 +74,7 @@ def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, b
     return state._replace(generation=state.generation + 1)
 
 
-class CuckooSearch(AbstractSolver):
+class CuckooSearch(AbstractPopulationSolver):
     """Cuckoo search (Yang & Deb 2009).
 
     - ``n_nests``: population size; 25, the value of Yang & Deb's paper and code.
@@ -100,17 +93,8 @@ class CuckooSearch(AbstractSolver):
     beta: float = BETA
     epsilon: float = 0.0
 
-    def init(self, fn, lower, upper, key):
-        return init_population(fn, lower, upper, key, self.n_nests)
-
     def step(self, fn, state, lower, upper, key):
         return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
-
-    def terminate(self, state):
-        return state.best_f < self.epsilon
-
-    def init_evaluations(self, n_dim):
-        return self.n_nests
 
     def step_evaluations(self, n_dim):
         return 2 * self.n_nests, 2 * self.n_nests

@@ -11,13 +11,13 @@ clip their own trial points to Ω.
 
 from __future__ import annotations
 
-from ._driver import AbstractSolver, population_state
-from .cuckoo import cs_generation, init_population
+from ._driver import AbstractPopulationSolver, population_state
+from .cuckoo import cs_generation
 from .levy import BETA
 from .simplex import SimplexCoefficients, simplex_on_worst
 
 
-class SMCS(AbstractSolver):
+class SMCS(AbstractPopulationSolver):
     """Simplex-modified cuckoo search (seed 000 §2.1).
 
     - ``n_nests``: 37, the population of seed 000 §2.3 (a simplex in 36 dimensions), so that
@@ -40,21 +40,12 @@ class SMCS(AbstractSolver):
     coefficients: SimplexCoefficients = SimplexCoefficients()
     epsilon: float = 0.0
 
-    def init(self, fn, lower, upper, key):
-        return init_population(fn, lower, upper, key, self.n_nests)
-
     def step(self, fn, state, lower, upper, key):
         nests, fit = simplex_on_worst(fn, state.nests, state.fitness, self.n_worst,
                                       self.coefficients)
         state = population_state(nests, fit, state.n_evals + 3 * self.n_worst,
                                  state.generation, state)
         return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
-
-    def terminate(self, state):
-        return state.best_f < self.epsilon
-
-    def init_evaluations(self, n_dim):
-        return self.n_nests
 
     def step_evaluations(self, n_dim):
         n = 3 * self.n_worst + 2 * self.n_nests

@@ -19,8 +19,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ._driver import AbstractSolver, draw, evaluate, greedy, population_state
-from .cuckoo import init_population
+from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
 from .levy import BETA, mantegna_from_normals
 from .simplex import SimplexCoefficients, simplex_on_worst
 
@@ -31,7 +30,7 @@ def adaptive_step(sp, t, t_max, p: float, sp_1: float):
     return sp * jnp.exp(-30.0 * frac**p) + sp_1 * (1.0 - frac)
 
 
-class VSASMCS(AbstractSolver):
+class VSASMCS(AbstractPopulationSolver):
     """VSA-SMCS (seed 000 §2.2–2.3).
 
     Paper values: ``n_nests`` = 37, ``n_worst`` = 12, ``beta`` = 1.5; the constant 30 of
@@ -52,8 +51,9 @@ class VSASMCS(AbstractSolver):
     - ``lu`` (abandonment probability): 0.25, Yang & Deb's ``pa``, of which it is the analogue.
     - ``max_generations`` (``T_max``): ``None`` — the generations the evaluation budget
       allows, so that the step schedule of eq. 11 ends when the budget does.
-    - ``epsilon`` (``ε``): 0.0 — run the whole budget (a fixed-budget comparison is what the
-      study needs; set it to the expected noise floor, e.g. ``6m·σ_q²``, to stop early).
+    - ``epsilon`` (``ε``; step 5 stops once ``S(u_best) < ε``): 0.0 — run the whole budget
+      (a fixed-budget comparison is what the study needs; set it to the expected noise floor,
+      e.g. ``6m·σ_q²``, to stop early).
     - ``coefficients``: Nelder–Mead coefficients (standard values).
 
     Evaluations: ``n_nests`` at init; ``2·n_nests + 3·n_worst`` per generation (110 with the
@@ -70,9 +70,6 @@ class VSASMCS(AbstractSolver):
     max_generations: int | None = None
     epsilon: float = 0.0
     coefficients: SimplexCoefficients = SimplexCoefficients()
-
-    def init(self, fn, lower, upper, key):
-        return init_population(fn, lower, upper, key, self.n_nests)
 
     def step(self, fn, state, lower, upper, key):
         if self.max_generations is None:
@@ -99,13 +96,6 @@ class VSASMCS(AbstractSolver):
         state = population_state(nests, fit, state.n_evals + 3 * self.n_worst,
                                  state.generation, state)
         return state._replace(generation=state.generation + 1)
-
-    def terminate(self, state):
-        # (5)
-        return state.best_f < self.epsilon
-
-    def init_evaluations(self, n_dim):
-        return self.n_nests
 
     def step_evaluations(self, n_dim):
         n = 2 * self.n_nests + 3 * self.n_worst
