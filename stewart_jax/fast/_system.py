@@ -193,10 +193,7 @@ def cabin_accelerations(
     lower-end cable forces ``cable_forces`` (``Float[Array, "6 3"]``, on the cables, eq. 54),
     and the lower platform's motion relative to B.
     """
-    def r(a):
-        return cabin_residual(params, R, omega, cable_forces, lower, a)[0]
-
-    a = _solve_affine(r)
+    a = cabin_accelerations_only(params, R, omega, cable_forces, lower)
     res, forces = cabin_residual(params, R, omega, cable_forces, lower, a)
     return CabinDynamics(a[:3], a[3:], forces, res)
 
