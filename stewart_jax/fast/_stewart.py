@@ -275,6 +275,36 @@ def leg_kinematics(params: StewartParams, upper: UpperMotion, lower: LowerMotion
                          a_D, G_B, rows_times_T(B_P, R_B))
 
 
+class _PlatformMotion(NamedTuple):
+    G_tP: Float[Array, "3"]
+    r_P0: Float[Array, "3"]
+    omega: Float[Array, "3"]
+    eps: Float[Array, "3"]
+    acc: Float[Array, "3"]
+    I: Float[Array, "3 3"]
+
+
+def _lower_platform_motion(params: StewartParams, upper: UpperMotion, lower: LowerMotion):
+    # Lower platform in G: origin from B's, centre of mass from P's origin, angular velocity
+    # and acceleration, centre-of-mass acceleration and central inertia (eqs. 43, 51–53).
+    R_P = mm(upper.R, lower.R)  # G R_B B R_P
+    RB_omega = mv(upper.R, lower.omega)
+    omega_P = upper.omega + RB_omega  # eq. 51
+    eps_P = upper.eps + _cross(upper.omega, RB_omega) + mv(upper.R, lower.eps)  # eq. 52
+    G_tP = mv(upper.R, lower.pos)
+    a_P = (
+        _cross(upper.eps, G_tP)
+        + _cross(upper.omega, _cross(upper.omega, G_tP))
+        + 2.0 * _cross(upper.omega, mv(upper.R, lower.vel))
+        + mv(upper.R, lower.acc)
+        + upper.acc
+    )  # eq. 53 (Coriolis term with the relative velocity)
+    r_P0 = mv(R_P, params.r_P0)
+    a_P0 = _cross(eps_P, r_P0) + _cross(omega_P, _cross(omega_P, r_P0))
+    I_P = mm(mm(R_P, params.I_P), R_P.T)  # eq. 43
+    return _PlatformMotion(G_tP, r_P0, omega_P, eps_P, a_P + a_P0, I_P)
+
+
 def stewart_inverse_dynamics(
     params: StewartParams, upper: UpperMotion, lower: LowerMotion
 ) -> StewartForces:
@@ -290,9 +320,7 @@ def stewart_inverse_dynamics(
     g = params.gravity
     s, L, W, A = legs.s, legs.L, legs.W, legs.A
     RLt = jnp.swapaxes(legs.R_L, -1, -2)
-    I_U = mm(mm(legs.R_L, params.I_U), RLt)  # eq. 41
-    I_D = mm(mm(legs.R_L, params.I_D), RLt)  # eq. 42
-    I_leg = I_U + I_D
+    I_leg = mm(mm(legs.R_L, params.I_U + params.I_D), RLt)  # eqs. 41–42
     acc_U = legs.a_B + legs.a_U - g
     acc_D = legs.a_B + legs.a_D - g
     D = (
@@ -303,25 +331,10 @@ def stewart_inverse_dynamics(
     )  # eq. 19
     c = -_cross(s, D) / L[:, None]  # eq. 18
 
-    R_P = mm(upper.R, lower.R)  # G R_B B R_P
+    plat = _lower_platform_motion(params, upper, lower)
+    r_P0, omega_P, eps_P, I_P = plat.r_P0, plat.omega, plat.eps, plat.I
+    acc_P = plat.acc - g
     G_P = legs.G_P
-    RB_omega = mv(upper.R, lower.omega)
-    omega_P = upper.omega + RB_omega  # eq. 51
-    eps_P = (
-        upper.eps + _cross(upper.omega, RB_omega) + mv(upper.R, lower.eps)
-    )  # eq. 52
-    G_tP = mv(upper.R, lower.pos)
-    a_P = (
-        _cross(upper.eps, G_tP)
-        + _cross(upper.omega, _cross(upper.omega, G_tP))
-        + 2.0 * _cross(upper.omega, mv(upper.R, lower.vel))
-        + mv(upper.R, lower.acc)
-        + upper.acc
-    )  # eq. 53 (Coriolis term with the relative velocity)
-    r_P0 = mv(R_P, params.r_P0)
-    a_P0 = _cross(eps_P, r_P0) + _cross(omega_P, _cross(omega_P, r_P0))
-    I_P = mm(mm(R_P, params.I_P), R_P.T)  # eq. 43
-    acc_P = a_P + a_P0 - g
 
     j = _cross(G_P, s)  # eq. 24
     N = jnp.concatenate([s.T, j.T], axis=0)  # eq. 23
@@ -336,6 +349,43 @@ def stewart_inverse_dynamics(
     F_U = params.m_U * acc_U + params.m_D * acc_D - F_D  # eq. 29
     M_UD = _dot(s, D)
     return StewartForces(F_S, F_D, F_U, M_UD, legs)
+
+
+def reaction_wrench(
+    params: StewartParams, upper: UpperMotion, lower: LowerMotion
+) -> tuple[Float[Array, "3"], Float[Array, "3"]]:
+    """Force and moment (about the origin of B, in G) that the six legs exert on the upper
+    platform, from the momentum balance of legs + lower platform: minus the sum over the 13
+    bodies of ``m (a − g)`` and of ``r × m (a − g) + I α + Ω × I Ω`` (each body's centre of
+    mass ``r`` from B's origin, central inertia ``I``), with the body motions of eqs. 30–53.
+
+    The joint forces are internal to that subsystem, so this equals
+    ``upper_platform_wrench(stewart_inverse_dynamics(params, upper, lower))`` (tested to
+    rounding) without solving eq. 22 for the leg forces: the cheaper form that the coupled
+    simulation evaluates at every step.
+    """
+    legs = leg_kinematics(params, upper, lower)
+    g = params.gravity
+    RLt = jnp.swapaxes(legs.R_L, -1, -2)
+    I_leg = mm(mm(legs.R_L, params.I_U + params.I_D), RLt)  # eqs. 41–42
+    f_U = params.m_U * (legs.a_B + legs.a_U - g)
+    f_D = params.m_D * (legs.a_B + legs.a_D - g)
+    plat = _lower_platform_motion(params, upper, lower)
+    f_P = params.m_P * (plat.acc - g)
+    force = -(jnp.sum(f_U + f_D, axis=0) + f_P)
+    moment = -(
+        jnp.sum(
+            _cross(legs.G_B + legs.r_U, f_U)
+            + _cross(legs.G_B + legs.r_D, f_D)
+            + mv(I_leg, legs.A)
+            + _cross(legs.W, mv(I_leg, legs.W)),
+            axis=0,
+        )
+        + _cross(plat.G_tP + plat.r_P0, f_P)
+        + mv(plat.I, plat.eps)
+        + _cross(plat.omega, mv(plat.I, plat.omega))
+    )
+    return force, moment
 
 
 def upper_platform_wrench(forces: StewartForces) -> tuple[Float[Array, "3"], Float[Array, "3"]]:

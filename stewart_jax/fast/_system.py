@@ -18,9 +18,13 @@ accelerations ``(ẗ_C, ε_C)`` through eqs. 34, 47–50 and 52–53, and it dep
 ``a = (ẗ_C, ε_C)``: the residual at ``a = 0`` and at the six unit vectors gives ``J`` exactly
 (``J e_k = r(e_k) − r(0)``), and one 6×6 linear solve gives the exact accelerations,
 ``a = -J⁻¹ r(0)``. No fixed-point iteration between the cable model and
-the Stewart model is needed (the paper's Fig. 5 iterates). The acceleration of B's origin is
-``ẗ_B = ẗ_C + ε_C × (R_C t_B) + ω_C × (ω_C × R_C t_B)``; eq. 56 writes ``ẗ_B = ẗ_C``, which drops
-the lever arm ``C t_B`` (0.155 m).
+the Stewart model is needed (the paper's Fig. 5 iterates). Only the legs' total wrench on the
+upper platform enters eqs. 57–58, so the time loop takes it from the momentum balance of legs +
+lower platform (:func:`~stewart_jax.fast.reaction_wrench`), which equals eq. 29 summed without
+solving eq. 22 for the six leg forces; the leg forces are computed where they are reported.
+
+The acceleration of B's origin is ``ẗ_B = ẗ_C + ε_C × (R_C t_B) + ω_C × (ω_C × R_C t_B)``;
+eq. 56 writes ``ẗ_B = ẗ_C``, which drops the lever arm ``C t_B`` (0.155 m).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from ._stewart import (
     mm,
     mv,
     paper_stewart_params,
+    reaction_wrench,
     rows_times_T,
     stewart_inverse_dynamics,
     upper_platform_wrench,
@@ -148,6 +153,26 @@ def upper_motion(
     return UpperMotion(mm(R, params.C_R_B), omega, eps, acc_B)
 
 
+def _cabin_balance(params, R, omega, cable_forces, a, F_leg, M_leg_B):
+    # Eqs. 57–58 given the legs' wrench on the upper platform (G; moment about B's origin).
+    acc, eps = a[:3], a[3:]
+    m = params.m_CB
+    G_tB = mv(R, params.C_t_B)
+    r_c = mv(R, params.r_CB0)
+    a_CB = jnp.cross(eps, r_c) + jnp.cross(omega, jnp.cross(omega, r_c))  # eq. 59
+    I_G = mm(mm(R, params.I_CB), R.T)  # eq. 60
+    r_A = rows_times_T(params.anchors, R)
+    acc_c = acc + a_CB - params.gravity
+    force = -jnp.sum(cable_forces, axis=0) + F_leg - m * acc_c  # eq. 57
+    moment = (
+        -jnp.sum(jnp.cross(r_A, cable_forces), axis=0)
+        + M_leg_B
+        + jnp.cross(G_tB, F_leg)
+        - (mv(I_G, eps) + jnp.cross(omega, mv(I_G, omega)) + m * jnp.cross(r_c, acc_c))
+    )  # eq. 58
+    return jnp.concatenate([force, moment])
+
+
 def cabin_residual(
     params: FastParams,
     R: Float[Array, "3 3"],
@@ -158,26 +183,11 @@ def cabin_residual(
 ) -> tuple[Float[Array, "6"], StewartForces]:
     """Residual of eqs. 57–58 (force; moment about C's origin) at accelerations
     ``a = (G ẗ_C, G ε_C)``; zero when the cabin moves as Newton–Euler requires."""
-    acc, eps = a[:3], a[3:]
-    g = params.gravity
-    m = params.m_CB
-    forces = stewart_inverse_dynamics(params.stewart, upper_motion(params, R, omega, acc, eps),
-                                      lower)
+    forces = stewart_inverse_dynamics(
+        params.stewart, upper_motion(params, R, omega, a[:3], a[3:]), lower
+    )
     F_leg, M_leg_B = upper_platform_wrench(forces)
-    G_tB = mv(R, params.C_t_B)
-    r_c = mv(R, params.r_CB0)
-    a_CB = jnp.cross(eps, r_c) + jnp.cross(omega, jnp.cross(omega, r_c))  # eq. 59
-    I_G = mm(mm(R, params.I_CB), R.T)  # eq. 60
-    r_A = rows_times_T(params.anchors, R)
-    acc_c = acc + a_CB - g
-    force = -jnp.sum(cable_forces, axis=0) + F_leg - m * acc_c  # eq. 57
-    moment = (
-        -jnp.sum(jnp.cross(r_A, cable_forces), axis=0)
-        + M_leg_B
-        + jnp.cross(G_tB, F_leg)
-        - (mv(I_G, eps) + jnp.cross(omega, mv(I_G, omega)) + m * jnp.cross(r_c, acc_c))
-    )  # eq. 58
-    return jnp.concatenate([force, moment]), forces
+    return _cabin_balance(params, R, omega, cable_forces, a, F_leg, M_leg_B), forces
 
 
 def cabin_accelerations(
@@ -215,11 +225,15 @@ def cabin_accelerations_only(
     cable_forces: Float[Array, "6 3"],
     lower: LowerMotion,
 ) -> Float[Array, "6"]:
-    """``(G ẗ_C, G ε_C)`` as :func:`cabin_accelerations`, without re-evaluating the Stewart
-    forces at the solution (the time loop's fast path)."""
+    """``(G ẗ_C, G ε_C)`` as :func:`cabin_accelerations` (equal up to rounding), the time
+    loop's fast path: the legs' wrench comes from :func:`reaction_wrench` (momentum balance of
+    legs + lower platform, no solve for the leg forces) and the Stewart forces are not
+    evaluated at the solution."""
 
     def r(a):
-        return cabin_residual(params, R, omega, cable_forces, lower, a)[0]
+        upper = upper_motion(params, R, omega, a[:3], a[3:])
+        F_leg, M_leg_B = reaction_wrench(params.stewart, upper, lower)
+        return _cabin_balance(params, R, omega, cable_forces, a, F_leg, M_leg_B)
 
     return _solve_affine(r)
 
