@@ -1,6 +1,7 @@
 """Static equilibrium (24×24), the coupled simulation at rest, and the §6 scenario / Table 2 of
 seed 002 at [0, 0, 140] m."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -10,9 +11,12 @@ import stewart_jax  # noqa: F401
 from stewart_jax.fast import (
     PAPER_TABLE2,
     anchor_positions,
+    cabin_accelerations,
+    cabin_residual,
     paper_fast_params,
     run_scenario,
     run_scenario_jit,
+    sine_motion,
     static_equilibrium,
     static_equilibrium_jit,
     tower_positions,
@@ -122,3 +126,38 @@ def test_table2_centre_amplitude_against_paper(scenario):
     e = np.asarray(scenario.extra_error[:, 0])
     assert 0.4 < float(scenario.amplitude[0]) / paper < 0.6
     assert abs(np.ptp(e) / paper - 1.0) < 0.1
+
+
+@jax.jit
+def _accelerations_two_ways(R, omega, cable_forces, t):
+    lower = sine_motion(PARAMS.h)(t)
+    fast = cabin_accelerations(PARAMS, R, omega, cable_forces, lower)
+
+    # Independent: Newton's method on the full residual (legs' wrench from the joint forces of
+    # eq. 29, J by forward-mode differentiation); one step is exact for an affine residual.
+    def r(a):
+        return cabin_residual(PARAMS, R, omega, cable_forces, lower, a)[0]
+
+    r0, J = r(jnp.zeros(6)), jax.jacfwd(r)(jnp.zeros(6))
+    return fast, jnp.linalg.solve(J, -r0), r0
+
+
+def test_cabin_accelerations_fast_path_against_full_residual():
+    """The time loop's accelerations (momentum-balance wrench, J from 7 points and the cabin's
+    linear terms, unpivoted Gauss–Jordan) solve eqs. 57–58 with the legs' wrench from the
+    joint forces, at a tilted, spinning cabin with unbalanced cable forces."""
+    rng = np.random.default_rng(7)
+    v = rng.normal(size=3) * 0.05
+    a = np.linalg.norm(v)
+    K = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]]) / a
+    R = np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
+    omega = rng.normal(size=3) * 0.3
+    forces = np.tile([0.0, 0.0, -4.9e4], (6, 1)) + rng.normal(size=(6, 3)) * 3e3
+    fast, reference, r0 = _accelerations_two_ways(jnp.asarray(R), jnp.asarray(omega),
+                                                  jnp.asarray(forces), 0.037)
+    acc = np.concatenate([np.asarray(fast.acc), np.asarray(fast.eps)])
+    assert np.max(np.abs(np.asarray(r0))) > 1e3  # far from balance at a = 0
+    # 1e-10 relative: both solve the same 6×6 system (condition number ≈ 14) built from
+    # sums of ~1e5 N terms.
+    np.testing.assert_allclose(acc, np.asarray(reference), rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(np.asarray(fast.residual))) <= 1e-9 * np.max(np.abs(np.asarray(r0)))

@@ -57,8 +57,8 @@ from ._stewart import (
     UpperMotion as UpperMotion,
     leg_kinematics as leg_kinematics,
     paper_stewart_params as paper_stewart_params,
-    stewart_inverse_dynamics as stewart_inverse_dynamics,
     reaction_wrench as reaction_wrench,
+    stewart_inverse_dynamics as stewart_inverse_dynamics,
     upper_platform_wrench as upper_platform_wrench,
 )
 from ._system import (

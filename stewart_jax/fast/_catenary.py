@@ -95,24 +95,88 @@ def catenary_upper_end(
     return jnp.stack([x, y, z], axis=-1)
 
 
+def _end_and_jacobian(cable: CableParams, fx, fy, fz, s0):
+    # Eqs. 11–13 and their derivatives in closed form, one component array per quantity.
+    # With w = ρg, T = Fz + w s0 (force at the upper end), H² = Fx² + Fy², k_T = |(Fx, Fy, T)|,
+    # k_B = |F| and d = arcsinh(T/H) − arcsinh(Fz/H):
+    #   ∂d/∂Fz = 1/k_T − 1/k_B,  ∂d/∂Fx = Fx q,  ∂d/∂Fy = Fy q,  q = (Fz/k_B − T/k_T)/H²;
+    # the Jacobian is symmetric (∂x/∂Fz = ∂z/∂Fx = −Fx (1/k_T − 1/k_B)/w, and so on).
+    #
+    # NOTE (speed): XLA:CPU gives every square root, division or logarithm with more than
+    # one user a kernel of its own, and on six cables the launch costs far more than the
+    # arithmetic. So the step has three such operations, each on a stacked array: one rsqrt
+    # gives k_T, k_B, H and their reciprocals; one log gives d through
+    # arcsinh(a/H) = sign(a) log((|a| + √(a² + H²))/H), which sums positive terms only (as
+    # accurate as the library arcsinh, and no cancellation for a < 0); the caller's solve has
+    # the third.
+    # NOTE (vertical cable, H → 0): the log(H) terms cancel when T and Fz share a sign (a
+    # hanging cable), H d → 0 and q → sign(Fz) (1/T² − 1/Fz²)/2; below H² = 1e-300 N² the
+    # limit of q is used and H is replaced by 1 where it would give log(0) or 0/0.
+    EA, w = cable.EA, cable.rho * cable.g
+    top = fz + w * s0
+    h2 = fx * fx + fy * fy
+    vertical = h2 < 1e-300
+    h2_safe = jnp.where(vertical, 1.0, h2)
+    sq = jnp.stack([h2 + top * top, h2 + fz * fz, h2_safe])
+    inv = jax.lax.rsqrt(sq)
+    k_top, k_bot = sq[0] * inv[0], sq[1] * inv[1]
+    inv_top, inv_bot, inv_h = inv[0], inv[1], inv[2]
+    s_top, s_bot = jnp.sign(top), jnp.sign(fz)
+    logs = jnp.log(jnp.stack([jnp.abs(top) + k_top, jnp.abs(fz) + k_bot, sq[2]]))
+    d = s_top * logs[0] - s_bot * logs[1] + 0.5 * (s_bot - s_top) * logs[2]
+    q = jnp.where(vertical, 0.5 * s_bot * (inv_top * inv_top - inv_bot * inv_bot),
+                  (fz * inv_bot - top * inv_top) * inv_h * inv_h)
+    inv_w = 1.0 / w
+    x = -fx / EA * s0 - fx * inv_w * d  # eq. 11
+    y = -fy / EA * s0 - fy * inv_w * d  # eq. 12
+    z = -fz / EA * s0 - w / (2.0 * EA) * s0**2 - (k_top - k_bot) * inv_w  # eq. 13
+    dd_z = inv_top - inv_bot
+    diag = -s0 / EA - d * inv_w
+    jxx = diag - fx * fx * q * inv_w
+    jyy = diag - fy * fy * q * inv_w
+    jxy = -fx * fy * q * inv_w
+    jxz = -fx * dd_z * inv_w
+    jyz = -fy * dd_z * inv_w
+    jzz = -s0 / EA - (top * inv_top - fz * inv_bot) * inv_w
+    return (x, y, z), (jxx, jxy, jxz, jyy, jyz, jzz)
+
+
 def catenary_jacobian(
     cable: CableParams, force: Float[Array, "... 3"], s0: Float[Array, "..."]
 ) -> tuple[Float[Array, "... 3"], Float[Array, "... 3 3"]]:
-    """Upper end (eqs. 11–13) and its Jacobian ``∂(AX, AY, AZ)/∂F`` per cable.
+    """Upper end (eqs. 11–13) and its Jacobian ``∂(AX, AY, AZ)/∂F`` per cable, in closed form
+    (symmetric; see the comments in the source).
 
     **Returns:** ``(end, J)`` with ``end``: ``Float[Array, "... 3"]`` and ``J``:
     ``Float[Array, "... 3 3"]`` (``J[..., i, k] = ∂end_i/∂F_k``).
     """
+    s0 = jnp.asarray(s0, force.dtype)
+    end, (xx, xy, xz, yy, yz, zz) = _end_and_jacobian(
+        cable, force[..., 0], force[..., 1], force[..., 2], s0
+    )
+    J = jnp.stack(
+        [jnp.stack([xx, xy, xz], -1), jnp.stack([xy, yy, yz], -1), jnp.stack([xz, yz, zz], -1)],
+        -2,
+    )
+    return jnp.stack(end, -1), J
 
-    def f(F):
-        return catenary_upper_end(cable, F, s0)
 
-    # The map is cable-wise: one forward-mode pass per force component gives every
-    # cable's 3×3 block at once (no batch×batch Jacobian is formed).
-    eye = jnp.eye(3, dtype=force.dtype)
-    end, cols = jax.vmap(lambda e: jax.jvp(f, (force,), (jnp.broadcast_to(e, force.shape),)),
-                         out_axes=(None, -1))(eye)
-    return end, cols
+def _newton_step(cable, F, delta, s0):
+    # One Newton step for every cable. ``F``: ``Float[Array, "3 n"]`` (force components first).
+    # Returns ``Float[Array, "4 n"]``: F − J⁻¹ misfit (3×3 symmetric solve by the adjugate)
+    # and, last, the squared end-point misfit at F; one array, so that XLA writes it in one
+    # kernel.
+    (x, y, z), (a, b, c, e, f, i) = _end_and_jacobian(cable, F[0], F[1], F[2], s0)
+    rx, ry, rz = x - delta[0], y - delta[1], z - delta[2]
+    A, B, C = e * i - f * f, c * f - b * i, b * f - c * e
+    D, E, H = a * i - c * c, b * c - a * f, a * e - b * b
+    inv_det = 1.0 / (a * A + b * B + c * C)
+    return jnp.stack([
+        F[0] - (A * rx + B * ry + C * rz) * inv_det,
+        F[1] - (B * rx + D * ry + E * rz) * inv_det,
+        F[2] - (C * rx + E * ry + H * rz) * inv_det,
+        rx * rx + ry * ry + rz * rz,
+    ])
 
 
 def _solve3(J: Float[Array, "... 3 3"], r: Float[Array, "... 3"]) -> Float[Array, "... 3"]:
@@ -172,33 +236,28 @@ def straight_bar_start(
 
 
 def _newton(cable, delta, s0, force0, tol, max_steps):
-    scale = jnp.maximum(jnp.linalg.norm(delta, axis=-1), 1.0)
-
-    def residual_norm(F):
-        return jnp.linalg.norm(catenary_upper_end(cable, F, s0) - delta, axis=-1)
+    # NOTE: the iteration runs on component arrays (cables along the last axis) and a cable's
+    # misfit is measured at the start of each step, at the point whose Jacobian the step uses:
+    # one closed-form evaluation per step (squared misfits, no square root in the loop).
+    # A step stops moving a cable once it has converged, so a batch finishes together
+    # without perturbing solutions that already meet the tolerance; the first step is taken
+    # unconditionally (a warm start from the previous time step needs exactly one).
+    delta_c = jnp.moveaxis(delta, -1, 0)
+    bound2 = (tol * jnp.maximum(jnp.sqrt(jnp.sum(delta_c * delta_c, axis=0)), 1.0)) ** 2
+    F1 = _newton_step(cable, jnp.moveaxis(force0, -1, 0), delta_c, s0)[:3]
+    out1 = _newton_step(cable, F1, delta_c, s0)
 
     def cond(carry):
-        F, res, step = carry
-        return (step < max_steps) & jnp.any(~(res <= tol * scale))
+        _, out, step = carry
+        return (step < max_steps) & jnp.any(~(out[3] <= bound2))
 
     def body(carry):
-        F, res, step = carry
-        end, J = catenary_jacobian(cable, F, s0)
-        dF = _solve3(J, end - delta)
-        # Converged cables are frozen so that a batch finishes together without
-        # perturbing solutions that already meet the tolerance.
-        done = res <= tol * scale
-        F_new = jnp.where(done[..., None], F, F - dF)
-        return F_new, residual_norm(F_new), step + 1
+        F, out, step = carry
+        F = jnp.where(out[3] <= bound2, F, out[:3])
+        return F, _newton_step(cable, F, delta_c, s0), step + 1
 
-    # NOTE: the first step is taken unconditionally (a warm start from the previous time step
-    # needs exactly one, and a converged cable moves by rounding only), which saves the
-    # residual evaluation at the start: a third of a warm-started solve.
-    end, J = catenary_jacobian(cable, force0, s0)
-    F1 = force0 - _solve3(J, end - delta)
-    carry = (F1, residual_norm(F1), jnp.asarray(1))
-    F, res, steps = jax.lax.while_loop(cond, body, carry)
-    return F, res, steps, res <= tol * scale
+    F, out, steps = jax.lax.while_loop(cond, body, (F1, out1, jnp.asarray(1)))
+    return jnp.moveaxis(F, 0, -1), jnp.sqrt(out[3]), steps, out[3] <= bound2
 
 
 def solve_catenary(

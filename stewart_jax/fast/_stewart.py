@@ -281,7 +281,7 @@ class _PlatformMotion(NamedTuple):
     omega: Float[Array, "3"]
     eps: Float[Array, "3"]
     acc: Float[Array, "3"]
-    I: Float[Array, "3 3"]
+    inertia: Float[Array, "3 3"]
 
 
 def _lower_platform_motion(params: StewartParams, upper: UpperMotion, lower: LowerMotion):
@@ -332,7 +332,7 @@ def stewart_inverse_dynamics(
     c = -_cross(s, D) / L[:, None]  # eq. 18
 
     plat = _lower_platform_motion(params, upper, lower)
-    r_P0, omega_P, eps_P, I_P = plat.r_P0, plat.omega, plat.eps, plat.I
+    r_P0, omega_P, eps_P, I_P = plat.r_P0, plat.omega, plat.eps, plat.inertia
     acc_P = plat.acc - g
     G_P = legs.G_P
 
@@ -382,8 +382,8 @@ def reaction_wrench(
             axis=0,
         )
         + _cross(plat.G_tP + plat.r_P0, f_P)
-        + mv(plat.I, plat.eps)
-        + _cross(plat.omega, mv(plat.I, plat.omega))
+        + mv(plat.inertia, plat.eps)
+        + _cross(plat.omega, mv(plat.inertia, plat.omega))
     )
     return force, moment
 

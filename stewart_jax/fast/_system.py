@@ -215,7 +215,22 @@ def _solve_affine(r):
     # slower on CPU than jax.linearize with 6 tangents, and simpler.
     points = jnp.concatenate([jnp.zeros((1, 6)), jnp.eye(6)]).astype(jnp.float64)
     rs = jax.vmap(r)(points)
-    return jnp.linalg.solve((rs[1:] - rs[0]).T, -rs[0])
+    return _gauss_jordan(jnp.concatenate([(rs[1:] - rs[0]).T, -rs[:1].T], axis=1))
+
+
+def _gauss_jordan(M: Float[Array, "n n+1"]) -> Float[Array, " n"]:
+    # Solution of [A | b] by Gauss–Jordan elimination without pivoting, unrolled.
+    # NOTE: A here is minus the generalised inertia of cabin + Stewart platform about C's
+    # origin: nearly symmetric and negative definite (eigenvalues ≈ -2.9e4 … -4.1e5 for
+    # Table 1), so no pivoting is needed, and six rank-one updates of a 6×7 array are several
+    # times cheaper on CPU than the LU factorisation and two triangular solves of
+    # ``jnp.linalg.solve`` (three library calls per step).
+    n = M.shape[0]
+    eye = jnp.eye(n, dtype=M.dtype)
+    for k in range(n):
+        row = M[k] / M[k, k]
+        M = M - (M[:, k] - eye[:, k])[:, None] * row[None, :]
+    return M[:, n]
 
 
 def cabin_accelerations_only(
@@ -230,12 +245,32 @@ def cabin_accelerations_only(
     legs + lower platform, no solve for the leg forces) and the Stewart forces are not
     evaluated at the solution."""
 
-    def r(a):
+    def legs(a):
         upper = upper_motion(params, R, omega, a[:3], a[3:])
-        F_leg, M_leg_B = reaction_wrench(params.stewart, upper, lower)
-        return _cabin_balance(params, R, omega, cable_forces, a, F_leg, M_leg_B)
+        return jnp.concatenate(reaction_wrench(params.stewart, upper, lower))
 
-    return _solve_affine(r)
+    # NOTE: as in _solve_affine, but only the legs' wrench is evaluated at the 7 points; the
+    # cabin's own terms enter J through their linear part, written out below. On CPU this
+    # keeps the gyroscopic and centripetal terms out of the batched evaluation.
+    points = jnp.concatenate([jnp.zeros((1, 6)), jnp.eye(6)]).astype(jnp.float64)
+    w = jax.vmap(legs)(points)
+    zero = jnp.zeros(6, dtype=jnp.float64)
+    r0 = _cabin_balance(params, R, omega, cable_forces, zero, w[0, :3], w[0, 3:])
+    G_tB = mv(R, params.C_t_B)
+    r_c = mv(R, params.r_CB0)
+    I_G = mm(mm(R, params.I_CB), R.T)  # eq. 60
+    m = params.m_CB
+
+    def column(a, dw):
+        # ∂(eqs. 57–58)/∂a along a, with dw the legs' wrench along a (moment about B).
+        acc, eps = a[:3], a[3:]
+        dF, dM = dw[:3], dw[3:]
+        lin = acc + jnp.cross(eps, r_c)
+        return jnp.concatenate([dF - m * lin,
+                                dM + jnp.cross(G_tB, dF) - mv(I_G, eps) - m * jnp.cross(r_c, lin)])
+
+    J = jax.vmap(column, out_axes=1)(points[1:], w[1:] - w[0])
+    return _gauss_jordan(jnp.concatenate([J, -r0[:, None]], axis=1))
 
 
 def static_lower_motion(h: float | ArrayLike = -1.7) -> LowerMotion:
