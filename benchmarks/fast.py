@@ -90,6 +90,16 @@ def workspace_map(n_side, duration, dt, repeats):
             "correlation_x_min": float(corr[ok, 0].min()), "all_ok": bool(ok.all())}
 
 
+def _cpu_pressure():
+    # Linux PSI: share of time runnable tasks waited for a CPU (a busy host shows here even
+    # when the load average of this VM is low).
+    try:
+        with open("/proc/pressure/cpu") as f:
+            return f.readline().strip()
+    except OSError:
+        return None
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--duration", type=float, default=2.0)
@@ -113,6 +123,7 @@ def main(argv=None):
         "python": platform.python_version(), "jax": jax.__version__, "jaxlib": jaxlib.__version__,
         "numpy": np.__version__, "backend": jax.default_backend(),
         "pinned_core": args.pin_core,
+        "cpu_pressure_at_end": _cpu_pressure(),
     }
     name = "fast" if args.pin_core is None else "fast_pinned"
     out = {"machine": info, "single_trajectory": single, "workspace_map": wmap}
@@ -123,7 +134,8 @@ def main(argv=None):
         "# FAST coupled simulation benchmark (seed 002)", "",
         f"`{info['command']}` on {info['platform']}, {info['cpu_count']} CPUs "
         f"(1-min load average at the end: {info['load_average_1m_at_end']:.1f}"
-        f"{'' if args.pin_core is None else f'; process pinned to core {args.pin_core}'}), "
+        f"{'' if args.pin_core is None else f'; process pinned to core {args.pin_core}'}; "
+        f"CPU pressure: {info['cpu_pressure_at_end']}), "
         f"jax {info['jax']}, numpy {info['numpy']}, python {info['python']}.", "",
         "| integrator | dt (ms) | steps | compile (s) | run best / median (s) "
         "| real-time factor best / median | µs/step |",
@@ -133,7 +145,7 @@ def main(argv=None):
         lines.append(f"| {s['method']} | {s['dt_s'] * 1e3:g} | {s['steps']} | {s['compile_s']:.1f} | "
                      f"{s['run_s_best']:.3f} / {s['run_s_median']:.3f} | "
                      f"{s['realtime_factor_best']:.1f}× / {s['realtime_factor_median']:.1f}× | "
-                     f"{s['us_per_step_best']:.0f} |")
+                     f"{s['us_per_step_best']:.1f} |")
     lines += ["", f"Workspace map (vmap, {wmap['positions']} positions, {wmap['grid']}, "
               f"{wmap['duration_s']} s each at dt {wmap['dt_s'] * 1e3:g} ms, statics included): "
               f"compile {wmap['compile_s']:.1f} s, run {wmap['run_s_best']:.2f} s → "
