@@ -60,8 +60,11 @@ def test_closed_form_matches_ode_integration():
 
 def test_jacobian_matches_finite_differences():
     force, s0 = _grid()
-    _, J = jax.jit(lambda F, s: catenary_jacobian(CABLE, F, s))(force, s0)
+    end, J = jax.jit(lambda F, s: catenary_jacobian(CABLE, F, s))(force, s0)
     J = np.asarray(J)
+    # The Newton solver's closed-form end point (log form of arcsinh) against eqs. 11–13 with
+    # the library arcsinh.
+    np.testing.assert_allclose(np.asarray(end), np.asarray(_end(force, s0)), rtol=0, atol=1e-9)
     for k in range(3):
         h = 1e-6 * np.linalg.norm(force, axis=-1)
         e = np.zeros(3)
@@ -145,3 +148,22 @@ def test_bad_input_raises():
         solve_catenary(CABLE, np.array([[1.0, np.nan, 3.0]]), np.ones(1))
     with pytest.raises(ValueError, match="positive"):
         solve_catenary(CABLE, np.ones((1, 3)), -np.ones(1))
+
+
+def test_jacobian_of_a_vertical_cable_is_the_limit():
+    """At H = 0 the closed form uses the limits of d and q; the Jacobian there is finite and
+    equals the one at a horizontal force of H = 1e-3 N: the entries even in H to rtol 1e-9
+    (they move by O(H²/F²) ≈ 1e-15), the ones proportional to Fx (∂x/∂Fz = ∂z/∂Fx) by
+    O(H/F)·|J| ≈ 5e-8·|J|, hence the absolute tolerance 1e-6·|J|."""
+    s0 = np.array([100.0, 250.0])
+    vertical = np.array([[0.0, 0.0, -2e4], [0.0, 0.0, -5e5]])
+    near = vertical + np.array([1e-3, 0.0, 0.0])
+    jac = jax.jit(lambda F, s: catenary_jacobian(CABLE, F, s))
+    (e0, J0), (e1, J1) = jac(vertical, s0), jac(near, s0)
+    assert np.all(np.isfinite(np.asarray(J0)))
+    scale = np.max(np.abs(np.asarray(J1)), axis=(1, 2), keepdims=True)
+    np.testing.assert_allclose(np.asarray(J0) / scale, np.asarray(J1) / scale, rtol=1e-9,
+                               atol=1e-6)
+    # End points: first-order Taylor step from the vertical cable (error O(H²) ≈ 1e-12 m).
+    taylor = np.asarray(e0) + np.einsum("nij,nj->ni", np.asarray(J0), near - vertical)
+    np.testing.assert_allclose(taylor, np.asarray(e1), rtol=0, atol=1e-9)

@@ -271,8 +271,8 @@ def solve_catenary(
 ) -> CatenarySolution:
     """Lower-end force ``F`` with ``catenary_upper_end(F, s0) = delta`` (inverse of eqs. 11–13).
 
-    Newton's method on the three force components of every cable at once (3×3 Jacobians by
-    forward mode, solved in closed form), stopping when every cable's end-point error is
+    Newton's method on the three force components of every cable at once (3×3 Jacobians and
+    their solves in closed form), stopping when every cable's end-point error is
     below ``tol·max(|delta|, 1 m)`` or after ``max_steps``.
 
     Derivatives (``jax.grad``/``jacfwd`` with respect to ``delta``, ``s0`` or ``cable``) use the

@@ -5,10 +5,12 @@ The cabin + upper platform is one rigid body with state ``(G t_C, q_C, G ṫ_C, 
 quaternion ``q_C`` for ``G R_C``, scalar first). At every evaluation of the right-hand side:
 
 1. the six cable forces come from the elastic catenary at the current pose with ``s0`` fixed
-   (eq. 54; :func:`solve_catenary`, warm-started from the previous evaluation);
+   (eq. 54; :func:`solve_catenary`, warm-started from the previous evaluation; Verlet
+   extrapolates the last two steps' forces linearly);
 2. the lower platform's motion relative to B is prescribed (a function of time);
 3. eqs. 57–58 with the Stewart reactions of eq. 29 are solved exactly for ``(G ẗ_C, G ε_C)``
-   by one 6×6 linear solve (they are affine in the accelerations; see :mod:`._system`).
+   by one 6×6 linear solve (they are affine in the accelerations; the legs' total wrench comes
+   from the momentum balance of legs + lower platform; see :mod:`._system`).
 
 Time stepping is inside ``jax.lax.scan``: velocity Verlet on the rotation group (default, one
 model evaluation per step) or the classical Runge–Kutta method (RK4, four); the quaternion is
