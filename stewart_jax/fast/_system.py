@@ -208,16 +208,6 @@ def cabin_accelerations(
     return CabinDynamics(a[:3], a[3:], forces, res)
 
 
-def _solve_affine(r):
-    # NOTE: r is affine, r(a) = r(0) + J a, so J's columns are r(e_k) − r(0) exactly, up to
-    # the rounding of r (|r(0)| ≲ 3e5 N against J's entries ~ m ≈ 2.6e4 kg: 1e-15 relative).
-    # One vmapped evaluation at the 7 points (the position-only work is not batched) is no
-    # slower on CPU than jax.linearize with 6 tangents, and simpler.
-    points = jnp.concatenate([jnp.zeros((1, 6)), jnp.eye(6)]).astype(jnp.float64)
-    rs = jax.vmap(r)(points)
-    return _gauss_jordan(jnp.concatenate([(rs[1:] - rs[0]).T, -rs[:1].T], axis=1))
-
-
 def _gauss_jordan(M: Float[Array, "n n+1"]) -> Float[Array, " n"]:
     # Solution of [A | b] by Gauss–Jordan elimination without pivoting, unrolled.
     # NOTE: A here is minus the generalised inertia of cabin + Stewart platform about C's
@@ -249,9 +239,12 @@ def cabin_accelerations_only(
         upper = upper_motion(params, R, omega, a[:3], a[3:])
         return jnp.concatenate(reaction_wrench(params.stewart, upper, lower))
 
-    # NOTE: as in _solve_affine, but only the legs' wrench is evaluated at the 7 points; the
-    # cabin's own terms enter J through their linear part, written out below. On CPU this
-    # keeps the gyroscopic and centripetal terms out of the batched evaluation.
+    # NOTE: the legs' wrench is affine in a, so its derivative along e_k is w(e_k) − w(0)
+    # exactly, up to rounding (|w| ≲ 3e5 N against derivatives ~ 1e3 kg: 1e-15 relative).
+    # One vmapped evaluation at the 7 points (the position-only work is not batched) is no
+    # slower on CPU than jax.linearize with 6 tangents. The cabin's own terms enter J through
+    # their linear part, written out below, which keeps the gyroscopic and centripetal terms
+    # out of the batched evaluation.
     points = jnp.concatenate([jnp.zeros((1, 6)), jnp.eye(6)]).astype(jnp.float64)
     w = jax.vmap(legs)(points)
     zero = jnp.zeros(6, dtype=jnp.float64)
