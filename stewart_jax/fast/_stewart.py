@@ -305,6 +305,35 @@ def _lower_platform_motion(params: StewartParams, upper: UpperMotion, lower: Low
     return _PlatformMotion(G_tP, r_P0, omega_P, eps_P, a_P + a_P0, I_P)
 
 
+def _leg_loads(params: StewartParams, legs: LegKinematics):
+    # Per leg, the d'Alembert loads of its two parts: the force m_U (a_U − g) + m_D (a_D − g)
+    # (the bracket of eq. 29) and the moment about B[i], D of eq. 19.
+    g = params.gravity
+    RLt = jnp.swapaxes(legs.R_L, -1, -2)
+    I_leg = mm(mm(legs.R_L, params.I_U + params.I_D), RLt)  # eqs. 41–42
+    f_U = params.m_U * (legs.a_B + legs.a_U - g)
+    f_D = params.m_D * (legs.a_B + legs.a_D - g)
+    D = (
+        _cross(legs.r_U, f_U)
+        + _cross(legs.r_D, f_D)
+        + mv(I_leg, legs.A)
+        + _cross(legs.W, mv(I_leg, legs.W))
+    )  # eq. 19
+    return f_U + f_D, D
+
+
+def _platform_loads(params: StewartParams, plat: _PlatformMotion):
+    # The lower platform's d'Alembert force m_P (a_P − g) and moment about P's origin
+    # (eqs. 27–28 without the leg terms).
+    f_P = params.m_P * (plat.acc - params.gravity)
+    moment = (
+        _cross(plat.r_P0, f_P)
+        + mv(plat.inertia, plat.eps)
+        + _cross(plat.omega, mv(plat.inertia, plat.omega))
+    )
+    return f_P, moment
+
+
 def stewart_inverse_dynamics(
     params: StewartParams, upper: UpperMotion, lower: LowerMotion
 ) -> StewartForces:
@@ -317,36 +346,19 @@ def stewart_inverse_dynamics(
     platform's accelerations ``(upper.acc, upper.eps)`` for fixed positions and velocities.
     """
     legs = leg_kinematics(params, upper, lower)
-    g = params.gravity
-    s, L, W, A = legs.s, legs.L, legs.W, legs.A
-    RLt = jnp.swapaxes(legs.R_L, -1, -2)
-    I_leg = mm(mm(legs.R_L, params.I_U + params.I_D), RLt)  # eqs. 41–42
-    acc_U = legs.a_B + legs.a_U - g
-    acc_D = legs.a_B + legs.a_D - g
-    D = (
-        params.m_U * _cross(legs.r_U, acc_U)
-        + params.m_D * _cross(legs.r_D, acc_D)
-        + mv(I_leg, A)
-        + _cross(W, mv(I_leg, W))
-    )  # eq. 19
+    s, L = legs.s, legs.L
+    f_leg, D = _leg_loads(params, legs)
     c = -_cross(s, D) / L[:, None]  # eq. 18
-
-    plat = _lower_platform_motion(params, upper, lower)
-    r_P0, omega_P, eps_P, I_P = plat.r_P0, plat.omega, plat.eps, plat.inertia
-    acc_P = plat.acc - g
+    f_P, M_P = _platform_loads(params, _lower_platform_motion(params, upper, lower))
     G_P = legs.G_P
 
     j = _cross(G_P, s)  # eq. 24
     N = jnp.concatenate([s.T, j.T], axis=0)  # eq. 23
-    n1 = -jnp.sum(c, axis=0) - params.m_P * acc_P  # eq. 27
-    n2 = (
-        -params.m_P * _cross(r_P0, acc_P)
-        - (mv(I_P, eps_P) + _cross(omega_P, mv(I_P, omega_P)))
-        - jnp.sum(_cross(G_P, c), axis=0)
-    )  # eq. 28 (sign of the last term corrected, see module docstring)
+    n1 = -jnp.sum(c, axis=0) - f_P  # eq. 27
+    n2 = -M_P - jnp.sum(_cross(G_P, c), axis=0)  # eq. 28 (last sign corrected, see above)
     F_S = jnp.linalg.solve(N, jnp.concatenate([n1, n2]))  # eq. 22
     F_D = F_S[:, None] * s + c  # eq. 16
-    F_U = params.m_U * acc_U + params.m_D * acc_D - F_D  # eq. 29
+    F_U = f_leg - F_D  # eq. 29
     M_UD = _dot(s, D)
     return StewartForces(F_S, F_D, F_U, M_UD, legs)
 
@@ -365,26 +377,11 @@ def reaction_wrench(
     simulation evaluates at every step.
     """
     legs = leg_kinematics(params, upper, lower)
-    g = params.gravity
-    RLt = jnp.swapaxes(legs.R_L, -1, -2)
-    I_leg = mm(mm(legs.R_L, params.I_U + params.I_D), RLt)  # eqs. 41–42
-    f_U = params.m_U * (legs.a_B + legs.a_U - g)
-    f_D = params.m_D * (legs.a_B + legs.a_D - g)
+    f_leg, D = _leg_loads(params, legs)
     plat = _lower_platform_motion(params, upper, lower)
-    f_P = params.m_P * (plat.acc - g)
-    force = -(jnp.sum(f_U + f_D, axis=0) + f_P)
-    moment = -(
-        jnp.sum(
-            _cross(legs.G_B + legs.r_U, f_U)
-            + _cross(legs.G_B + legs.r_D, f_D)
-            + mv(I_leg, legs.A)
-            + _cross(legs.W, mv(I_leg, legs.W)),
-            axis=0,
-        )
-        + _cross(plat.G_tP + plat.r_P0, f_P)
-        + mv(plat.inertia, plat.eps)
-        + _cross(plat.omega, mv(plat.inertia, plat.omega))
-    )
+    f_P, M_P = _platform_loads(params, plat)
+    force = -(jnp.sum(f_leg, axis=0) + f_P)
+    moment = -(jnp.sum(_cross(legs.G_B, f_leg) + D, axis=0) + _cross(plat.G_tP, f_P) + M_P)
     return force, moment
 
 
