@@ -21,7 +21,7 @@ import jaxlib
 import numpy as np
 
 import stewart_jax  # noqa: F401
-from stewart_jax.fast import (
+from stewart_jax.cable_robot import (
     CabinState,
     matrix_to_quat,
     paper_fast_params,

@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
-from stewart_jax._study import trial_keys  # noqa: E402
+from stewart_jax.study._study import trial_keys  # noqa: E402
 
 HEADERS = ["dx (µm)", "dy (µm)", "dz (µm)", "φ (″)", "θ (″)", "ψ (″)"]
 

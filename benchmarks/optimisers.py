@@ -32,8 +32,8 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
-from stewart_jax._solver.calibrate import _run_batch, _run_one, make_solver  # noqa: E402
-from stewart_jax._study import simulate_trials, trial_keys  # noqa: E402
+from stewart_jax.calibration._methods import _run_batch, _run_one, make_solver  # noqa: E402
+from stewart_jax.study._study import simulate_trials, trial_keys  # noqa: E402
 
 
 def numpy_strokes(U, upper_idx, poses, v0):

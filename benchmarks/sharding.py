@@ -27,7 +27,7 @@ import faulthandler, json, sys, time
 faulthandler.dump_traceback_later(int(sys.argv[5]), exit=True)  # a hang ends with the stacks on stderr
 import jax
 import stewart_jax  # noqa: F401
-from stewart_jax._study import run_study
+from stewart_jax.study._study import run_study
 nd, lm_trials, trials, budget = (int(a) for a in sys.argv[1:5])
 assert len(jax.devices()) == nd, jax.devices()
 out = {}

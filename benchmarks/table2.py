@@ -25,7 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import RESULTS, write_results  # noqa: E402
 
 import stewart_jax  # noqa: E402,F401
-from stewart_jax._study import METHOD_LABELS, format_study_table, run_study  # noqa: E402
+from stewart_jax.study._study import METHOD_LABELS, format_study_table, run_study  # noqa: E402
 
 CONVERGENCE_METHODS = ("cs", "smcs", "vsa-smcs")
 

@@ -39,7 +39,7 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import plotting
-from stewart_jax._study import METHOD_LABELS, PAPER_TABLE2, format_study_table, run_study, simulate_trials, trial_keys
+from stewart_jax.study._study import METHOD_LABELS, PAPER_TABLE2, format_study_table, run_study, simulate_trials, trial_keys
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 N_TRIALS = 3 if QUICK else 100

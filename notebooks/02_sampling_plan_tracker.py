@@ -39,7 +39,7 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import plotting
-from stewart_jax._identifiability import identifiability_report
+from stewart_jax.calibration._identifiability import identifiability_report
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 N_TRIALS = 2 if QUICK else 50
@@ -162,7 +162,7 @@ plotting.show(fig, figure_path("02_singular_values.png"))
 # stroke over the plan. Which joint coordinates dominate the weakest direction:
 
 # %%
-J = np.asarray(sj._identifiability.identification_jacobian(cal0, plan))
+J = np.asarray(sj.identification_jacobian(cal0, plan))
 Js = J / np.linalg.norm(J, axis=0)
 _, s, vt = np.linalg.svd(Js, full_matrices=False)
 names = [f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)]

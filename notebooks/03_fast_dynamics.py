@@ -33,7 +33,7 @@ import jax
 import numpy as np
 
 import stewart_jax as sj
-from stewart_jax import fast, plotting
+from stewart_jax import cable_robot as fast, plotting
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 DURATION, DT = (0.2, 2e-3) if QUICK else (2.0, 1e-3)

@@ -37,7 +37,7 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc, plotting
-from stewart_jax._identifiability import identifiability_report
+from stewart_jax.calibration._identifiability import identifiability_report
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 OUT = Path(os.environ.get("STEWART_JAX_OUT") or tempfile.mkdtemp(prefix="stewart_jax_nb5_"))

@@ -9,7 +9,7 @@ import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
-from ._calibration import (
+from .calibration._problem import (
     ARCSEC as ARCSEC,
     COMPONENTS as COMPONENTS,
     UM as UM,
@@ -25,7 +25,7 @@ from ._calibration import (
     stroke_residuals as stroke_residuals,
     summarize_control_error as summarize_control_error,
 )
-from ._geometry import (
+from .mechanism._pss import (
     PRESETS as PRESETS,
     Geometry as Geometry,
     actual_geometry as actual_geometry,
@@ -37,7 +37,7 @@ from ._geometry import (
     rod_lengths as rod_lengths,
     save_geometry as save_geometry,
 )
-from ._identifiability import (
+from .calibration._identifiability import (
     IdentifiabilityReport as IdentifiabilityReport,
     PosePlan as PosePlan,
     calibration_uncertainty as calibration_uncertainty,
@@ -47,8 +47,8 @@ from ._identifiability import (
     plan_poses_optimal as plan_poses_optimal,
     predicted_control_error_std as predicted_control_error_std,
 )
-from ._io import read_csv as read_csv, write_csv as write_csv
-from ._kinematics import (
+from .calibration._csv import read_csv as read_csv, write_csv as write_csv
+from .mechanism._kinematics import (
     FKSolution as FKSolution,
     IKSolution as IKSolution,
     euler_angles as euler_angles,
@@ -60,12 +60,12 @@ from ._kinematics import (
     solve_inverse_kinematics as solve_inverse_kinematics,
     upper_joints_in_base as upper_joints_in_base,
 )
-from ._kinematics_batched import (
+from .mechanism._batched import (
     forward_kinematics_newton as forward_kinematics_newton,
     inverse_kinematics_sharded as inverse_kinematics_sharded,
     inverse_kinematics_soa as inverse_kinematics_soa,
 )
-from ._simulation import (
+from .calibration._simulation import (
     PLANS as PLANS,
     TRAVEL_MM as TRAVEL_MM,
     TRAVEL_RAD as TRAVEL_RAD,
@@ -80,9 +80,14 @@ from ._simulation import (
     tracker_measure as tracker_measure,
     validation_poses as validation_poses,
 )
-from ._solver import (
-    MAX_STEPS as MAX_STEPS,
+from .calibration._methods import (
     METHODS as METHODS,
+    calibrate as calibrate,
+    calibrate_batch as calibrate_batch,
+    make_solver as make_solver,
+)
+from .optimise import (
+    MAX_STEPS as MAX_STEPS,
     NONFINITE as NONFINITE,
     SMCS as SMCS,
     STATUS_NAMES as STATUS_NAMES,
@@ -97,11 +102,8 @@ from ._solver import (
     PopulationState as PopulationState,
     SimplexCoefficients as SimplexCoefficients,
     VSASMCSThenLM as VSASMCSThenLM,
-    calibrate as calibrate,
-    calibrate_batch as calibrate_batch,
     hill_tail_index as hill_tail_index,
     lm_calibrate as lm_calibrate,
-    make_solver as make_solver,
     mantegna_sigma as mantegna_sigma,
     mantegna_step as mantegna_step,
     minimise as minimise,

@@ -11,7 +11,7 @@ import pytest
 
 import stewart_jax  # noqa: F401
 from stewart_jax.discrepancy import diagnose, effects_for
-from stewart_jax.discrepancy._fast import (
+from stewart_jax.discrepancy._cable_robot import (
     FAST_EFFECTS,
     MODEL_NAME,
     fast_model,

@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import stewart_jax  # noqa: F401  (enables float64)
-from stewart_jax.fast import (
+from stewart_jax.cable_robot import (
     CableParams,
     catenary_jacobian,
     catenary_upper_end,

@@ -5,7 +5,7 @@ import argparse
 
 import pytest
 
-from stewart_jax.fast._cli import add_fast_parser
+from stewart_jax._cli.fast import add_fast_parser
 
 
 def _parser():

@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import stewart_jax  # noqa: F401
-from stewart_jax.fast import (
+from stewart_jax.cable_robot import (
     PAPER_TABLE2,
     anchor_positions,
     cabin_accelerations,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import stewart_jax  # noqa: F401
-from stewart_jax.fast import (
+from stewart_jax.cable_robot import (
     LowerMotion,
     UpperMotion,
     paper_stewart_params,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import stewart_jax as sj
-from stewart_jax._identifiability import (
+from stewart_jax.calibration._identifiability import (
     calibration_uncertainty,
     identifiability_report,
     identification_jacobian,

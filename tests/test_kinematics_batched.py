@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import stewart_jax as sj
-from stewart_jax._kinematics_batched import (
+from stewart_jax.mechanism._batched import (
     _POLY_RANGE,
     _sincos_poly,
     forward_kinematics_newton,
@@ -141,7 +141,7 @@ import jax
 jax.config.update("jax_num_cpu_devices", 2)
 import numpy as np
 import stewart_jax as sj
-from stewart_jax._kinematics_batched import inverse_kinematics_sharded
+from stewart_jax.mechanism._batched import inverse_kinematics_sharded
 g = sj.actual_geometry()
 rng = np.random.default_rng(8)
 for n in (33, 34):  # odd: padded to the device count

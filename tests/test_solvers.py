@@ -18,24 +18,23 @@ import numpy as np
 import pytest
 
 import stewart_jax as sj
-from stewart_jax._calibration import calibration_problem, control_error, summarize_control_error
-from stewart_jax._simulation import plan_poses, simulate_measurements
-from stewart_jax._solver import (
+from stewart_jax.calibration._problem import calibration_problem, control_error, summarize_control_error
+from stewart_jax.calibration._simulation import plan_poses, simulate_measurements
+from stewart_jax.optimise import (
     MAX_STEPS,
     SMCS,
     SUCCESS,
     VSASMCS,
     CuckooSearch,
     NelderMead,
-    calibrate,
-    calibrate_batch,
     hill_tail_index,
     mantegna_sigma,
     mantegna_step,
     minimise,
 )
-from stewart_jax._solver._driver import materialize
-from stewart_jax._solver._random import draw
+from stewart_jax.calibration._methods import calibrate, calibrate_batch
+from stewart_jax.optimise._driver import materialize
+from stewart_jax.optimise._random import draw
 
 # ---------------------------------------------------------------------------------------
 # Standard test functions on the box [-5, 5]^d: a shifted sphere (optimum inside), the

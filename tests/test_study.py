@@ -2,7 +2,7 @@ import jax
 import numpy as np
 import pytest
 
-import stewart_jax._study as study
+import stewart_jax.study._study as study
 from stewart_jax._cli import main
 
 

@@ -6,9 +6,9 @@ The workflow is generic over :class:`AbstractDiscrepancyModel`; the 6-PSS calibr
 """
 
 from . import _effects as _effects  # registers the 6-PSS candidates
-from ._cli import add_diagnose_parser as add_diagnose_parser
+from .._cli.diagnose import add_diagnose_parser as add_diagnose_parser
 from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
-from ._fast import (
+from ._cable_robot import (
     FastModel as FastModel,
     fast_model as fast_model,
     fast_responses as fast_responses,
@@ -24,7 +24,7 @@ from ._hidden import (
     true_control_error as true_control_error,
     write_hidden_csv as write_hidden_csv,
 )
-from ._plots import plot_residuals as plot_residuals
+from ..plotting._discrepancy import plot_residuals as plot_residuals
 from ._pss import (
     PSSModel as PSSModel,
     PSSState as PSSState,

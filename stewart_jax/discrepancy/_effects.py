@@ -11,8 +11,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._calibration import ARCSEC, UM, CalibrationData
-from .._kinematics import euler_angles, rotation_matrix
+from ..calibration._problem import ARCSEC, UM, CalibrationData
+from ..mechanism._kinematics import euler_angles, rotation_matrix
 from ._pss import MODEL_NAME, PSSState
 from ._registry import register_effect
 

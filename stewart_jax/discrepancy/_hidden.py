@@ -24,11 +24,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._calibration import ARCSEC, UM, CalibrationData, make_calibration_data, stroke_residuals
-from .._geometry import Geometry, actual_geometry
-from .._io import write_csv
-from .._kinematics import solve_inverse_kinematics
-from .._simulation import sampling_plan_120
+from ..calibration._problem import ARCSEC, UM, CalibrationData, make_calibration_data, stroke_residuals
+from ..mechanism._pss import Geometry, actual_geometry
+from ..calibration._csv import write_csv
+from ..mechanism._kinematics import solve_inverse_kinematics
+from ..calibration._simulation import sampling_plan_120
 from ._effects import T_REF_C
 from ._registry import get_effect
 

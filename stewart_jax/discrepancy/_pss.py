@@ -14,9 +14,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._calibration import ARCSEC, UM, CalibrationData
-from .._geometry import Geometry
-from .._kinematics import rotation_matrix
+from ..calibration._problem import ARCSEC, UM, CalibrationData
+from ..mechanism._pss import Geometry
+from ..mechanism._kinematics import rotation_matrix
 from ._registry import AbstractDiscrepancyModel
 
 MODEL_NAME = "6-pss"
@@ -236,7 +236,7 @@ def load_fitted_model(path):
     whose :meth:`commanded` gives the readings to command for target poses."""
     import json
 
-    from .._geometry import geometry_from_params
+    from ..mechanism._pss import geometry_from_params
     from ._registry import get_effect
     from ._workflow import FittedModel
 

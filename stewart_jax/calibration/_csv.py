@@ -14,7 +14,7 @@ from decimal import Context, Decimal, InvalidOperation
 
 import numpy as np
 
-from ._calibration import CalibrationData, make_calibration_data
+from ._problem import CalibrationData, make_calibration_data
 
 STROKE_COLUMNS = tuple(f"q{i}" for i in range(1, 7))
 POSE_COLUMNS = ("x", "y", "z", "rx", "ry", "rz")

@@ -28,7 +28,7 @@ from ._driver import (
     greedy,
     population_state,
 )
-from .levy import BETA, mantegna_from_normals
+from ._levy import BETA, mantegna_from_normals
 
 
 def levy_flight_phase(fn, state: PopulationState, lower, upper, rnd, alpha: float, beta: float

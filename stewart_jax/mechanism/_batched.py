@@ -37,7 +37,7 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float
 
-from ._geometry import Geometry
+from ._pss import Geometry
 from ._kinematics import (
     FKSolution,
     IKSolution,

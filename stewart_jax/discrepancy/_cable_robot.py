@@ -39,11 +39,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ..fast import paper_fast_params
-from ..fast._coupled import CabinState, matrix_to_quat, simulate
-from ..fast._scenario import scenario_outputs, sine_motion, system_momentum
-from ..fast._statics import static_equilibrium
-from ..fast._system import FastParams
+from ..cable_robot import paper_fast_params
+from ..cable_robot._coupled import CabinState, matrix_to_quat, simulate
+from ..cable_robot._scenario import scenario_outputs, sine_motion, system_momentum
+from ..cable_robot._statics import static_equilibrium
+from ..cable_robot._system import FastParams
 from ._registry import AbstractDiscrepancyModel, register_effect
 
 MODEL_NAME = "fast"

@@ -12,9 +12,9 @@ clip their own trial points to Ω.
 from __future__ import annotations
 
 from ._driver import AbstractPopulationSolver, population_state
-from .cuckoo import cs_generation
-from .levy import BETA
-from .simplex import SimplexCoefficients, simplex_on_worst
+from ._cuckoo import cs_generation
+from ._levy import BETA
+from ._simplex import SimplexCoefficients, simplex_on_worst
 
 
 class SMCS(AbstractPopulationSolver):

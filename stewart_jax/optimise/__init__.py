@@ -19,21 +19,15 @@ from ._result import (
     SUCCESS as SUCCESS,
     OptimiseResult as OptimiseResult,
 )
-from .calibrate import (
-    METHODS as METHODS,
-    calibrate as calibrate,
-    calibrate_batch as calibrate_batch,
-    make_solver as make_solver,
-)
-from .cuckoo import CuckooSearch as CuckooSearch
-from .hybrid import VSASMCSThenLM as VSASMCSThenLM
-from .jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
-from .levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, lm_calibrate as lm_calibrate
-from .levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
-from .simplex import (
+from ._cuckoo import CuckooSearch as CuckooSearch
+from ._hybrid import VSASMCSThenLM as VSASMCSThenLM
+from ._jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
+from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, lm_calibrate as lm_calibrate
+from ._levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
+from ._simplex import (
     NelderMead as NelderMead,
     SimplexCoefficients as SimplexCoefficients,
     simplex_on_worst as simplex_on_worst,
 )
-from .smcs import SMCS as SMCS
-from .vsa_smcs import VSASMCS as VSASMCS
+from ._smcs import SMCS as SMCS
+from ._vsa_smcs import VSASMCS as VSASMCS

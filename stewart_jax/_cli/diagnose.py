@@ -8,10 +8,10 @@ import sys
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from .._geometry import load_geometry
-    from .._io import read_csv
-    from ._pss import pss_model
-    from ._workflow import diagnose
+    from ..mechanism._pss import load_geometry
+    from ..calibration._csv import read_csv
+    from ..discrepancy._pss import pss_model
+    from ..discrepancy._workflow import diagnose
 
     data = read_csv(args.file)
     model = pss_model(load_geometry(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
@@ -38,11 +38,11 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "estimate_noise": args.estimate_noise,
     }
     if args.plot:
-        from ._plots import plot_residuals
+        from ..plotting._discrepancy import plot_residuals
 
         out["plots"] = plot_residuals(report, args.plot)
     if args.out_model:
-        from ._pss import save_fitted_model
+        from ..discrepancy._pss import save_fitted_model
 
         save_fitted_model(report.fitted, args.out_model)
     skipped = "; ".join(f"{s['effect']}: {s['reason']}" for s in report.skipped)
@@ -65,7 +65,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
-    from ._hidden import simulate_hidden_effect, write_hidden_csv
+    from ..discrepancy._hidden import simulate_hidden_effect, write_hidden_csv
 
     effect = None if args.effect == "none" else args.effect
     sim = simulate_hidden_effect(
@@ -100,7 +100,7 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out-model", help="write the augmented model (geometry + effect parameters) as JSON")
     p.set_defaults(func=_cmd_diagnose)
 
-    from ._hidden import EFFECT_NAMES
+    from ..discrepancy._hidden import EFFECT_NAMES
 
     q = subparsers.add_parser("simulate-effect", help="simulated measured data with one hidden effect (CSV)")
     q.add_argument("--out", required=True)

@@ -15,7 +15,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._calibration import CalibrationProblem
+from ..calibration._problem import CalibrationProblem
 from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
 
 

@@ -14,11 +14,11 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import PRNGKeyArray
 
-from .._calibration import CalibrationProblem
+from ..calibration._problem import CalibrationProblem
 from ._driver import minimise
 from ._result import NONFINITE, OptimiseResult
-from .levenberg_marquardt import LevenbergMarquardt
-from .vsa_smcs import VSASMCS
+from ._levenberg_marquardt import LevenbergMarquardt
+from ._vsa_smcs import VSASMCS
 
 
 class VSASMCSThenLM(eqx.Module):

@@ -16,9 +16,9 @@ ALL_METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "neld
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import jax
 
-    from ._geometry import load_geometry
-    from ._io import write_csv
-    from ._simulation import default_tracker, plan_poses, simulate_measurements
+    from ..mechanism._pss import load_geometry
+    from ..calibration._csv import write_csv
+    from ..calibration._simulation import default_tracker, plan_poses, simulate_measurements
 
     nominal, true = load_geometry(args.nominal), load_geometry(args.true)
     k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
@@ -40,10 +40,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     import jax
 
-    from ._calibration import calibration_problem
-    from ._geometry import geometry_from_params, load_geometry, save_geometry
-    from ._io import read_csv
-    from ._solver._result import STATUS_NAMES
+    from ..calibration._problem import calibration_problem
+    from ..mechanism._pss import geometry_from_params, load_geometry, save_geometry
+    from ..calibration._csv import read_csv
+    from ..optimise._result import STATUS_NAMES
 
     data = read_csv(args.file)
     nominal = load_geometry(args.geometry)
@@ -57,18 +57,18 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         options["max_steps"] = args.max_steps
     t0 = time.perf_counter()
     if args.method == "lm" and "max_evaluations" not in options:
-        from ._solver.levenberg_marquardt import LevenbergMarquardt
+        from ..optimise._levenberg_marquardt import LevenbergMarquardt
 
         result = jax.jit(LevenbergMarquardt(**options).run)(problem)
     else:
-        from ._solver.calibrate import calibrate
+        from ..calibration._methods import calibrate
 
         result = calibrate(problem, args.method, jax.random.key(args.seed), **options)
     result = jax.block_until_ready(result)
     seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
     m = data.n_poses
-    from ._identifiability import calibration_uncertainty
+    from ..calibration._identifiability import calibration_uncertainty
 
     unc = calibration_uncertainty(geometry_from_params(params, nominal.v0), data.poses, args.sigma_um,
                                   args.sigma_arcsec)
@@ -103,8 +103,8 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     if args.out_geometry:
         save_geometry(geometry_from_params(params, nominal.v0), args.out_geometry)
     if args.plot:
-        from . import plotting
-        from ._calibration import stroke_residuals
+        from .. import plotting
+        from ..calibration._problem import stroke_residuals
 
         before = np.asarray(stroke_residuals(nominal.params, data, nominal.v0)).reshape(-1, 6) * 1e3
         after = np.asarray(stroke_residuals(result.params, data, nominal.v0)).reshape(-1, 6) * 1e3
@@ -116,7 +116,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from ._study import format_study_table, run_study
+    from ..study._study import format_study_table, run_study
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = sorted(set(methods) - set(ALL_METHODS))
@@ -143,8 +143,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         with open(args.json, "w") as f:
             json.dump(result, f, indent=2)
     if args.plot:
-        from . import plotting
-        from ._study import PAPER_TABLE2
+        from .. import plotting
+        from ..study._study import PAPER_TABLE2
 
         rows = {k: r["calibration"] for k, r in result["rows"].items()}
         paper = PAPER_TABLE2 if args.plan == "paper8" else None
@@ -207,8 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="OUT.png", help="max control error per method beside the paper's Table 2")
     p.set_defaults(func=_cmd_study)
 
-    from .discrepancy._cli import add_diagnose_parser
-    from .fast._cli import add_fast_parser
+    from .diagnose import add_diagnose_parser
+    from .fast import add_fast_parser
 
     add_diagnose_parser(sub)
     add_fast_parser(sub)

@@ -28,9 +28,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._calibration import COMPONENTS, CalibrationProblem, calibration_problem, control_error, error_in_report_units
-from ._geometry import Geometry, actual_geometry, geometry_from_params, nominal_geometry
-from ._simulation import default_tracker, random_poses, sampling_plan_120, simulate_measurements
+from ..calibration._problem import COMPONENTS, CalibrationProblem, calibration_problem, control_error, error_in_report_units
+from ..mechanism._pss import Geometry, actual_geometry, geometry_from_params, nominal_geometry
+from ..calibration._simulation import default_tracker, random_poses, sampling_plan_120, simulate_measurements
 
 PAPER_TABLE2: dict[str, list[float]] = {
     "Before calibration": [532.07, 189.03, 174.38, 250.10, 374.02, 354.99],
@@ -59,7 +59,7 @@ def _batch_calibrator(method: str, options: dict[str, Any]) -> Callable:
     if method == BEFORE:
 
         def before(problems, keys):
-            from ._solver._result import OptimiseResult
+            from ..optimise._result import OptimiseResult
 
             n = keys.shape[0]
             cost = jax.vmap(lambda p: p.cost(p.initial))(problems)
@@ -67,7 +67,7 @@ def _batch_calibrator(method: str, options: dict[str, Any]) -> Callable:
             return OptimiseResult(problems.initial, cost, zeros[:, 0], zeros[:, 0], cost[:, None], zeros)
 
         return before
-    from ._solver.calibrate import calibrate_batch
+    from ..calibration._methods import calibrate_batch
 
     return lambda problems, keys: calibrate_batch(problems, method, keys, **options)
 

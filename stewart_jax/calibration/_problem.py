@@ -19,8 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from ._geometry import N_PARAMS, Geometry, geometry_from_params
-from ._kinematics import check_array, check_poses, forward_kinematics, solve_inverse_kinematics
+from ..mechanism._pss import N_PARAMS, Geometry, geometry_from_params
+from ..mechanism._kinematics import check_array, check_poses, forward_kinematics, solve_inverse_kinematics
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One arc-second in radians."""

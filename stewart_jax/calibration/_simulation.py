@@ -20,9 +20,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
-from ._calibration import ARCSEC, UM, CalibrationData
-from ._geometry import Geometry
-from ._kinematics import euler_angles, forward_kinematics, rotation_matrix, solve_inverse_kinematics
+from ._problem import ARCSEC, UM, CalibrationData
+from ..mechanism._pss import Geometry
+from ..mechanism._kinematics import euler_angles, forward_kinematics, rotation_matrix, solve_inverse_kinematics
 
 TRAVEL_MM = 1.0
 """Translation travel ±1 mm (seed 000 §4)."""

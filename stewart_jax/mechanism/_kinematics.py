@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from ._geometry import Geometry
+from ._pss import Geometry
 
 # Angles in the library are radians. A pose angle beyond this is taken as a unit mistake
 # (degrees given where radians are expected): no optics hexapod tilts by ~29°, and the Euler

@@ -20,8 +20,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
-from .levy import BETA, mantegna_from_normals
-from .simplex import SimplexCoefficients, simplex_on_worst
+from ._levy import BETA, mantegna_from_normals
+from ._simplex import SimplexCoefficients, simplex_on_worst
 
 
 def adaptive_step(sp, t, t_max, p: float, sp_1: float):

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from .._calibration import CalibrationProblem
+from ..calibration._problem import CalibrationProblem
 from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
 
 

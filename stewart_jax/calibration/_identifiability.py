@@ -25,9 +25,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._calibration import ARCSEC, UM
-from ._geometry import Geometry, geometry_from_params
-from ._kinematics import kinematic_jacobian, solve_inverse_kinematics
+from ._problem import ARCSEC, UM
+from ..mechanism._pss import Geometry, geometry_from_params
+from ..mechanism._kinematics import kinematic_jacobian, solve_inverse_kinematics
 
 
 def identification_jacobian(geometry: Geometry, poses: Float[Array, "m 6"]) -> Float[Array, "6m 36"]:

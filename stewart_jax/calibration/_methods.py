@@ -29,16 +29,16 @@ import equinox as eqx
 import jax
 from jaxtyping import PRNGKeyArray
 
-from .._calibration import CalibrationProblem
-from ._driver import minimise
-from ._result import OptimiseResult
-from .cuckoo import CuckooSearch
-from .hybrid import VSASMCSThenLM
-from .jaxopt_lm import JaxoptLevenbergMarquardt
-from .levenberg_marquardt import LevenbergMarquardt
-from .simplex import NelderMead
-from .smcs import SMCS
-from .vsa_smcs import VSASMCS
+from ._problem import CalibrationProblem
+from ..optimise._driver import minimise
+from ..optimise._result import OptimiseResult
+from ..optimise._cuckoo import CuckooSearch
+from ..optimise._hybrid import VSASMCSThenLM
+from ..optimise._jaxopt_lm import JaxoptLevenbergMarquardt
+from ..optimise._levenberg_marquardt import LevenbergMarquardt
+from ..optimise._simplex import NelderMead
+from ..optimise._smcs import SMCS
+from ..optimise._vsa_smcs import VSASMCS
 
 METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "nelder-mead")
 """The method names :func:`calibrate` accepts."""

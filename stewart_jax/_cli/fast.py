@@ -56,8 +56,8 @@ def run_fast(args: argparse.Namespace) -> int:
 
     import stewart_jax  # noqa: F401  (float64)
 
-    from ._scenario import PAPER_TABLE2, run_scenario_jit
-    from ._system import paper_fast_params
+    from ..cable_robot._scenario import PAPER_TABLE2, run_scenario_jit
+    from ..cable_robot._system import paper_fast_params
 
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
