@@ -19,13 +19,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from ..mechanism._pss import N_PARAMS, Geometry, geometry_from_params
+from .._units import (
+    ARCSEC as ARCSEC,
+    COMPONENTS as COMPONENTS,
+    UM as UM,
+    error_in_report_units as error_in_report_units,
+)
 from ..mechanism._kinematics import check_array, check_poses, forward_kinematics, solve_inverse_kinematics
-
-ARCSEC = np.pi / (180.0 * 3600.0)
-"""One arc-second in radians."""
-UM = 1e-3
-"""One micrometre in mm."""
+from ..mechanism._pss import N_PARAMS, Geometry, geometry_from_params
 
 
 class CalibrationData(NamedTuple):
@@ -175,16 +176,6 @@ def control_error(
     q = solve_inverse_kinematics(calibrated, targets)
     fk = forward_kinematics(true, q.strokes, targets)
     return ControlError(fk.poses - targets, fk.converged & q.reachable)
-
-
-COMPONENTS = ("dx", "dy", "dz", "phi", "theta", "psi")
-"""Pose components in report order; the first three in µm, the last three in arc-seconds."""
-
-
-def error_in_report_units(errors: ArrayLike) -> np.ndarray:
-    """Pose errors (mm, rad) → (µm, ″)."""
-    e = np.asarray(errors, dtype=np.float64)
-    return np.concatenate([e[..., :3] / UM, e[..., 3:] / ARCSEC], axis=-1)
 
 
 def summarize_control_error(err: ControlError) -> dict[str, list[float]]:

@@ -19,38 +19,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .._checks import (
+    MAX_ANGLE_RAD as MAX_ANGLE_RAD,
+    check_array as check_array,
+    check_poses as check_poses,
+    is_traced as _is_traced,
+)
+from .._math import euler_angles as euler_angles, rotation_matrix as rotation_matrix
 from ._pss import Geometry
-
-# Angles in the library are radians. A pose angle beyond this is taken as a unit mistake
-# (degrees given where radians are expected): no optics hexapod tilts by ~29°, and the Euler
-# parametrisation itself is singular at θ = ±90°.
-MAX_ANGLE_RAD = 0.5
-
-
-def rotation_matrix(angles: Float[Array, "... 3"]) -> Float[Array, "... 3 3"]:
-    """``T = Rz(ψ)·Ry(θ)·Rx(φ)`` for ``angles = [φ, θ, ψ]`` (eq. 1).
-
-    NOTE: eq. 1 as printed has ``sψ·sθ·sφ − cψ·cφ`` in element (2,2); the product of the
-    elementary rotations gives ``+ cψ·cφ`` (SPEC §1), which is what is built here.
-    """
-    phi, theta, psi = angles[..., 0], angles[..., 1], angles[..., 2]
-    cf, sf = jnp.cos(phi), jnp.sin(phi)
-    ct, st = jnp.cos(theta), jnp.sin(theta)
-    cp, sp = jnp.cos(psi), jnp.sin(psi)
-    rows = [
-        [cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
-        [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
-        [-st, ct * sf, ct * cf],
-    ]
-    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
-
-
-def euler_angles(rotation: Float[Array, "... 3 3"]) -> Float[Array, "... 3"]:
-    """Inverse of :func:`rotation_matrix` for ``|θ| < π/2``: ``[φ, θ, ψ]``."""
-    phi = jnp.arctan2(rotation[..., 2, 1], rotation[..., 2, 2])
-    theta = -jnp.arcsin(jnp.clip(rotation[..., 2, 0], -1.0, 1.0))
-    psi = jnp.arctan2(rotation[..., 1, 0], rotation[..., 0, 0])
-    return jnp.stack([phi, theta, psi], axis=-1)
 
 
 class IKSolution(NamedTuple):
@@ -298,35 +274,3 @@ def forward_kinematics(
         )
         sol = sol._replace(poses=poses)
     return sol
-
-
-def _is_traced(tree) -> bool:
-    return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
-
-
-def check_array(x: ArrayLike, name: str, last_dim: int) -> Array:
-    """Float64 array with last axis ``last_dim``, finite where the value is concrete."""
-    if isinstance(x, jax.core.Tracer):
-        if x.shape[-1:] != (last_dim,):
-            raise ValueError(f"{name} must have a last axis of {last_dim}, got shape {x.shape}")
-        return x
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[-1:] != (last_dim,):
-        raise ValueError(f"{name} must have a last axis of {last_dim}, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
-        raise ValueError(f"{name} contains NaN or inf (first at index {idx})")
-    return jnp.asarray(a)
-
-
-def check_poses(poses: ArrayLike, name: str = "poses") -> Array:
-    """Validate poses ``[dx, dy, dz, φ, θ, ψ]`` (mm, rad): shape, finiteness, radians."""
-    p = check_array(poses, name, last_dim=6)
-    if not isinstance(p, jax.core.Tracer):
-        worst = float(np.max(np.abs(np.asarray(p)[..., 3:]), initial=0.0))
-        if worst > MAX_ANGLE_RAD:
-            raise ValueError(
-                f"{name}: an angle of {worst:.4g} rad ({np.degrees(worst):.4g}°) exceeds "
-                f"{MAX_ANGLE_RAD} rad; the library takes radians — were degrees passed?"
-            )
-    return p
