@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
-from stewart_jax.study._study import trial_keys  # noqa: E402
+from stewart_jax.study import trial_keys  # noqa: E402
 
 HEADERS = ["dx (µm)", "dy (µm)", "dz (µm)", "φ (″)", "θ (″)", "ψ (″)"]
 
@@ -53,7 +53,7 @@ def _simulate(keys, targets, nominal, actual, sigma_um, sigma_arcsec):
 @jax.jit
 def _validation_errors(params, actual, validation):
     """``(seeds, 42, 6)`` control errors (mm, rad) of each calibrated parameter vector."""
-    ce = jax.vmap(lambda p: sj.control_error(sj.geometry_from_params(p, actual.v0), actual, validation))(params)
+    ce = jax.vmap(lambda p: sj.control_error(nominal.with_params(p), actual, validation))(params)
     return ce.errors, jnp.all(ce.converged)
 
 
@@ -63,7 +63,7 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
     problems, sim_ok = _simulate(noise_keys, jnp.asarray(targets), nominal, actual, sigma_um, sigma_arcsec)
     if not bool(sim_ok):
         raise RuntimeError("forward kinematics of the true mechanism failed at a calibration pose")
-    res = sj.calibrate_batch(problems, "lm", noise_keys)
+    res = sj.calibration.calibrate_batch(problems, "lm", noise_keys)
     errors, fk_ok = _validation_errors(res.params, actual, validation)
     errors = sj.error_in_report_units(errors)
     status, counts = np.unique(np.asarray(res.status), return_counts=True)
@@ -122,7 +122,7 @@ def main(argv=None) -> int:
     keys = trial_keys(args.seed, args.seeds)
     split = jax.vmap(lambda k: jax.random.split(k, 2))(keys)
     noise_keys, pose_keys = split[:, 0], split[:, 1]
-    M = np.asarray(sj.control_error_sensitivity(actual, validation))
+    M = np.asarray(sj.calibration.control_error_sensitivity(actual, validation))
     rng = np.random.default_rng(args.seed)
 
     # The plans: name → (m, targets (seeds, m, 6), fixed?, planning info)
@@ -133,10 +133,10 @@ def main(argv=None) -> int:
             plans["paper8 (8 random poses, new draw per seed)"] = {"m": 8, "targets": per_seed, "fixed": False}
             plans["random 8 (one fixed paper-style draw)"] = {"m": 8, "targets": per_seed[0], "fixed": True}
         else:
-            plans["plan120 (seed 000 §4)"] = {"m": 120, "targets": np.asarray(sj.sampling_plan_120()), "fixed": True}
+            plans["plan120 (seed 000 §4)"] = {"m": 120, "targets": np.asarray(sj.calibration.sampling_plan_120()), "fixed": True}
         for criterion in ("O1", "O3"):
             t0 = time.perf_counter()
-            plan = sj.plan_poses_optimal(nominal, candidates, m, criterion)
+            plan = sj.calibration.plan_poses_optimal(nominal, candidates, m, criterion)
             plans[f"{criterion}-optimal {m}"] = {
                 "m": m, "targets": plan.poses, "fixed": True,
                 "planning": {"seconds": time.perf_counter() - t0, "criterion_history": plan.history,
@@ -147,9 +147,9 @@ def main(argv=None) -> int:
     for name, p in plans.items():
         targets = p["targets"] if not p["fixed"] else np.broadcast_to(p["targets"], (args.seeds, *p["targets"].shape))
         pose_sets = [targets[i] for i in range(args.seeds)] if not p["fixed"] else [p["targets"]]
-        reports = [sj.identifiability_report(actual, jnp.asarray(t), sigma_um, sigma_arcsec) for t in pose_sets]
+        reports = [sj.calibration.identifiability_report(actual, jnp.asarray(t), sigma_um, sigma_arcsec) for t in pose_sets]
         pred = predicted([r.param_cov for r in reports], M, args.draws, rng)
-        nominal_reports = [sj.identifiability_report(nominal, jnp.asarray(t)) for t in pose_sets[:50]]
+        nominal_reports = [sj.calibration.identifiability_report(nominal, jnp.asarray(t)) for t in pose_sets[:50]]
         mc = monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigma_arcsec)
         e = mc["errors"]  # (seeds, 42, 6)
         maxima = np.abs(e).max(axis=1)

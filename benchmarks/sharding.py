@@ -27,7 +27,7 @@ import faulthandler, json, sys, time
 faulthandler.dump_traceback_later(int(sys.argv[5]), exit=True)  # a hang ends with the stacks on stderr
 import jax
 import stewart_jax  # noqa: F401
-from stewart_jax.study._study import run_study
+from stewart_jax.study import run_study
 nd, lm_trials, trials, budget = (int(a) for a in sys.argv[1:5])
 assert len(jax.devices()) == nd, jax.devices()
 out = {}
@@ -86,7 +86,7 @@ def main(argv=None) -> int:
                          f"{base['second_s'] / r['second_s']:.2f}× | {diff:.2g} | {load[nd]:.2f} |")
     lines += ["", f"The host has {os.cpu_count()} CPU cores, shared with other work (see the load averages): N host "
               "devices share them, so more devices than cores cannot speed up further. Each device runs its own "
-              "block of trials as an independent program (no collective; see `stewart_jax._study._per_device`). "
+              "block of trials as an independent program (no collective; see `run_study`'s `n_devices`). "
               "On a multi-GPU machine the same `n_devices` argument spreads the trials over the local "
               "accelerators."]
     text = "\n".join(lines)

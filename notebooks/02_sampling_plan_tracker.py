@@ -21,7 +21,7 @@
 # control error at the sampling points before and after calibration and at 42 other points.
 #
 # We do the same in simulation (the prototype is not available): Table 1's nominal and
-# "actual" geometries, the tracker model of `sj.default_tracker()`, LM calibration inside
+# "actual" geometries, the tracker model of `sj.calibration.default_tracker()`, LM calibration inside
 # Ω = nominal ± 10 mm (Table 1's actual values are up to 6.9 mm from nominal, so the paper's
 # experimental ±2.5 mm cannot contain them). The paper's Table 4 values are marked, but they
 # come from a different mechanism (its prototype was far closer to nominal: 20 µm before
@@ -39,7 +39,7 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import plotting
-from stewart_jax.calibration._identifiability import identifiability_report
+from stewart_jax.calibration import identifiability_report
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 N_TRIALS = 2 if QUICK else 50
@@ -54,8 +54,8 @@ def figure_path(name):
 
 
 nominal, actual = sj.nominal_geometry(), sj.actual_geometry()
-plan = sj.sampling_plan_120()
-tracker = sj.default_tracker()
+plan = sj.calibration.sampling_plan_120()
+tracker = sj.calibration.default_tracker()
 print(f"quick={QUICK}: {N_TRIALS} simulated experiments; plan {plan.shape[0]} poses; "
       f"tracker: {tracker.balls.shape[0]} balls, σ = {tracker.sigma_mm * 1e3:g} µm per coordinate")
 
@@ -90,7 +90,7 @@ def one_experiment(i):
     sim, val = simulate(jax.random.fold_in(jax.random.key(0), i))
     assert bool(np.all(sim.converged))
     res = sj.calibrate(sj.calibration_problem(sim.data, nominal, half), "lm")
-    cal = sj.geometry_from_params(res.params, nominal.v0)
+    cal = nominal.with_params(res.params)
     rows = {}
     for label, geom, poses in (("Sampling points before calibration", nominal, plan),
                                ("Sampling points after calibration", cal, plan),
@@ -162,7 +162,7 @@ plotting.show(fig, figure_path("02_singular_values.png"))
 # stroke over the plan. Which joint coordinates dominate the weakest direction:
 
 # %%
-J = np.asarray(sj.identification_jacobian(cal0, plan))
+J = np.asarray(sj.calibration.identification_jacobian(cal0, plan))
 Js = J / np.linalg.norm(J, axis=0)
 _, s, vt = np.linalg.svd(Js, full_matrices=False)
 names = [f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)]

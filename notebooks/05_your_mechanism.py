@@ -37,7 +37,7 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc, plotting
-from stewart_jax.calibration._identifiability import identifiability_report
+from stewart_jax.calibration import identifiability_report
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 OUT = Path(os.environ.get("STEWART_JAX_OUT") or tempfile.mkdtemp(prefix="stewart_jax_nb5_"))
@@ -58,7 +58,7 @@ csv_file = os.environ.get("STEWART_JAX_CSV")
 if csv_file is None:
     OUT.mkdir(parents=True, exist_ok=True)
     geometry_file = str(OUT / "nominal.json")
-    sj.save_geometry(sj.nominal_geometry(), geometry_file)
+    sj.save_mechanism(sj.nominal_geometry(), geometry_file)
     csv_file = str(OUT / "measured.csv")
     demo = dc.simulate_hidden_effect(7, None, 0.0, n_random=20 if QUICK else 60,
                                      sigma_um=SIGMA_UM, sigma_arcsec=SIGMA_ARCSEC)
@@ -71,11 +71,11 @@ print(f"geometry: {geometry_file}\nmeasured data: {csv_file}\noutput: {OUT}")
 # ## Load
 
 # %%
-nominal = sj.load_geometry(geometry_file)
+nominal = sj.load_mechanism(geometry_file)
 data = sj.read_csv(csv_file)
 extras = [n for n in ("directions", "temperature", "time") if getattr(data, n) is not None]
 print(f"{data.n_poses} poses; optional columns present: {extras or 'none'}")
-print("rod lengths (mm):", np.round(np.asarray(sj.rod_lengths(nominal)), 3).tolist())
+print("rod lengths (mm):", np.round(np.asarray(sj.mechanism.rod_lengths(nominal)), 3).tolist())
 
 # %% [markdown]
 # ## Calibrate (Levenberg–Marquardt from the nominal parameters, Ω = nominal ± 10 mm)
@@ -86,8 +86,8 @@ print("rod lengths (mm):", np.round(np.asarray(sj.rod_lengths(nominal)), 3).toli
 # %%
 problem = sj.calibration_problem(data, nominal, half_width=10.0)
 result = jax.block_until_ready(sj.calibrate(problem, "lm"))
-calibrated = sj.geometry_from_params(result.params, nominal.v0)
-status = sj.STATUS_NAMES[int(result.status)]
+calibrated = nominal.with_params(result.params)
+status = sj.optimise.STATUS_NAMES[int(result.status)]
 print(f"status {status}; S = {float(result.cost):.4g} mm² "
       f"(RMS stroke residual {np.sqrt(float(result.cost) / (6 * data.n_poses)) * 1e3:.3g} µm) "
       f"after {int(result.n_evaluations)} LM steps")
@@ -97,8 +97,8 @@ print("largest joint-centre corrections (mm):",
                 for j in np.argsort(-np.linalg.norm(moved, axis=1))[:4]))
 
 # %%
-res_before = np.asarray(sj.stroke_residuals(nominal.params, data, nominal.v0)).reshape(-1, 6) * 1e3
-res_after = np.asarray(sj.stroke_residuals(result.params, data, nominal.v0)).reshape(-1, 6) * 1e3
+res_before = np.asarray(sj.stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * 1e3
+res_after = np.asarray(sj.stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * 1e3
 fig = plotting.plot_stroke_residuals({"nominal geometry": res_before, "calibrated": res_after},
                                      title="stroke residuals q' − IK(P', u) before and after calibration")
 plotting.show(fig, figure_path("05_stroke_residuals.png"))
@@ -137,13 +137,13 @@ plotting.show(fig, figure_path("05_residuals_stroke.png"))
 # %% [markdown]
 # ## Export
 #
-# The calibrated geometry as JSON (read back by `sj.load_geometry`, `stewart-jax calibrate
+# The calibrated geometry as JSON (read back by `sj.load_mechanism`, `stewart-jax calibrate
 # --geometry`, …); with a named effect, also the augmented model (`dc.load_fitted_model`).
 
 # %%
 out_geometry = OUT / "calibrated.json"
-sj.save_geometry(calibrated, out_geometry)
-back = sj.load_geometry(out_geometry)
+sj.save_mechanism(calibrated, out_geometry)
+back = sj.load_mechanism(out_geometry)
 assert np.array_equal(np.asarray(back.params), np.asarray(calibrated.params))
 print(f"calibrated geometry written to {out_geometry}")
 if report.named_effect != "none":

@@ -1,113 +1,88 @@
-"""stewart_jax: kinematics, calibration and dynamics of Stewart platforms in JAX.
+"""stewart_jax: kinematics, calibration and dynamics of hexapods (Stewart platforms) in JAX.
 
-NOTE: importing the package enables ``jax_enable_x64`` once (SPEC §1): calibration carries
-micrometres over 100 mm (1e-5 relative), which float32 cannot hold. Every array the library
-creates is float64.
+The top level holds the core a user needs to move, simulate and calibrate a mechanism; the rest
+lives in named subpackages:
+
+- :mod:`stewart_jax.mechanism` — the mechanism abstraction, its families and presets, kinematics
+  and the batched fast paths;
+- :mod:`stewart_jax.calibration` — data, residuals, simulated measurements, identifiability and
+  pose planning, ``calibrate`` over the method registry;
+- :mod:`stewart_jax.optimise` — generic batched optimisers (cuckoo search, SMCS, VSA-SMCS,
+  bounded Nelder–Mead, Levenberg–Marquardt) for any objective;
+- :mod:`stewart_jax.study` — the papers' Monte Carlo studies;
+- :mod:`stewart_jax.discrepancy` — the model-discrepancy workflow;
+- :mod:`stewart_jax.cable_robot` — the FAST cable-driven feed support (Yin et al.);
+- :mod:`stewart_jax.plotting` — figures (needs matplotlib).
+
+The last three are imported on first use.
+
+NOTE: importing the package enables ``jax_enable_x64`` once: calibration carries micrometres
+over 100 mm (1e-5 relative), which float32 cannot hold. Every array the library creates is
+float64.
 """
+
+import importlib as _importlib
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError, version as _version
 
 import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
-from .calibration._problem import (
+from . import calibration as calibration, mechanism as mechanism, optimise as optimise, study as study
+from ._math import euler_angles as euler_angles, rotation_matrix as rotation_matrix
+from ._units import (
     ARCSEC as ARCSEC,
     COMPONENTS as COMPONENTS,
     UM as UM,
+    error_in_report_units as error_in_report_units,
+)
+from .calibration import (
+    METHODS as METHODS,
     CalibrationData as CalibrationData,
-    CalibrationProblem as CalibrationProblem,
-    ControlError as ControlError,
+    calibrate as calibrate,
     calibration_cost as calibration_cost,
     calibration_problem as calibration_problem,
     control_error as control_error,
-    error_in_report_units as error_in_report_units,
-    feasible_box as feasible_box,
     make_calibration_data as make_calibration_data,
-    stroke_residuals as stroke_residuals,
-    summarize_control_error as summarize_control_error,
-)
-from .mechanism._pss import (
-    PRESETS as PRESETS,
-    Geometry as Geometry,
-    actual_geometry as actual_geometry,
-    geometry_from_dict as geometry_from_dict,
-    geometry_from_params as geometry_from_params,
-    load_geometry as load_geometry,
-    nominal_geometry as nominal_geometry,
-    preset_geometry as preset_geometry,
-    rod_lengths as rod_lengths,
-    save_geometry as save_geometry,
-)
-from .calibration._identifiability import (
-    IdentifiabilityReport as IdentifiabilityReport,
-    PosePlan as PosePlan,
-    calibration_uncertainty as calibration_uncertainty,
-    control_error_sensitivity as control_error_sensitivity,
-    identifiability_report as identifiability_report,
-    identification_jacobian as identification_jacobian,
-    plan_poses_optimal as plan_poses_optimal,
-    predicted_control_error_std as predicted_control_error_std,
-)
-from .calibration._csv import read_csv as read_csv, write_csv as write_csv
-from .mechanism._kinematics import (
-    FKSolution as FKSolution,
-    IKSolution as IKSolution,
-    euler_angles as euler_angles,
-    forward_kinematics as forward_kinematics,
-    ik_and_jacobian as ik_and_jacobian,
-    inverse_kinematics as inverse_kinematics,
-    kinematic_jacobian as kinematic_jacobian,
-    rotation_matrix as rotation_matrix,
-    solve_inverse_kinematics as solve_inverse_kinematics,
-    upper_joints_in_base as upper_joints_in_base,
-)
-from .mechanism._batched import (
-    forward_kinematics_newton as forward_kinematics_newton,
-    inverse_kinematics_sharded as inverse_kinematics_sharded,
-    inverse_kinematics_soa as inverse_kinematics_soa,
-)
-from .calibration._simulation import (
-    PLANS as PLANS,
-    TRAVEL_MM as TRAVEL_MM,
-    TRAVEL_RAD as TRAVEL_RAD,
-    LaserTracker as LaserTracker,
-    SimulatedMeasurement as SimulatedMeasurement,
-    default_tracker as default_tracker,
     plan_poses as plan_poses,
     random_poses as random_poses,
-    rigid_fit as rigid_fit,
-    sampling_plan_120 as sampling_plan_120,
+    read_csv as read_csv,
     simulate_measurements as simulate_measurements,
-    tracker_measure as tracker_measure,
+    stroke_residuals as stroke_residuals,
+    summarize_control_error as summarize_control_error,
     validation_poses as validation_poses,
+    write_csv as write_csv,
 )
-from .calibration._methods import (
-    METHODS as METHODS,
-    calibrate as calibrate,
-    calibrate_batch as calibrate_batch,
-    make_solver as make_solver,
-)
-from .optimise import (
-    MAX_STEPS as MAX_STEPS,
-    NONFINITE as NONFINITE,
-    SMCS as SMCS,
-    STATUS_NAMES as STATUS_NAMES,
-    SUCCESS as SUCCESS,
-    VSASMCS as VSASMCS,
-    AbstractSolver as AbstractSolver,
-    CuckooSearch as CuckooSearch,
-    JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt,
-    LevenbergMarquardt as LevenbergMarquardt,
-    NelderMead as NelderMead,
-    OptimiseResult as OptimiseResult,
-    PopulationState as PopulationState,
-    SimplexCoefficients as SimplexCoefficients,
-    VSASMCSThenLM as VSASMCSThenLM,
-    hill_tail_index as hill_tail_index,
-    lm_calibrate as lm_calibrate,
-    mantegna_sigma as mantegna_sigma,
-    mantegna_step as mantegna_step,
-    minimise as minimise,
-    simplex_on_worst as simplex_on_worst,
+from .mechanism import (
+    AbstractMechanism as AbstractMechanism,
+    FKSolution as FKSolution,
+    Geometry as Geometry,
+    IKSolution as IKSolution,
+    PSSMechanism as PSSMechanism,
+    actual_geometry as actual_geometry,
+    forward_kinematics as forward_kinematics,
+    geometry_from_params as geometry_from_params,
+    inverse_kinematics as inverse_kinematics,
+    kinematic_jacobian as kinematic_jacobian,
+    load_mechanism as load_mechanism,
+    nominal_geometry as nominal_geometry,
+    save_mechanism as save_mechanism,
+    solve_inverse_kinematics as solve_inverse_kinematics,
 )
 
-__version__ = "0.1.0"
+_LAZY = ("cable_robot", "discrepancy", "plotting")
+
+try:
+    __version__ = _version("stewart-jax")
+except _PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0+unknown"
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return _importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'stewart_jax' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted([*globals(), *_LAZY])

@@ -20,12 +20,12 @@ def actual():
 
 @pytest.fixture(scope="session", params=["nominal", "actual"])
 def preset(request):
-    return sj.preset_geometry(request.param)
+    return sj.mechanism.preset(request.param)
 
 
 def travel_grid(seed: int = 0, n_random: int = 192) -> np.ndarray:
     """The 64 corners of the ±1 mm/±1° travel box, its centre, and seeded uniform poses."""
-    half = np.array([sj.TRAVEL_MM] * 3 + [sj.TRAVEL_RAD] * 3)
+    half = np.array([sj.calibration.TRAVEL_MM] * 3 + [sj.calibration.TRAVEL_RAD] * 3)
     corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * 6, indexing="ij")).reshape(6, -1).T * half
     rng = np.random.default_rng(seed)
     inner = rng.uniform(-half, half, size=(n_random, 6))

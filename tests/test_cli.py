@@ -26,7 +26,7 @@ def test_simulate_then_calibrate(tmp_path):
     assert res["cost"] < 1e-18
     std = np.asarray(res["param_std"])
     assert std.shape == (36,) and np.all(std > 0) and np.all(np.isfinite(std))
-    np.testing.assert_array_equal(sj.load_geometry(geo).params, res["params"])
+    np.testing.assert_array_equal(sj.load_mechanism(geo).params, res["params"])
 
 
 def test_cli_reports_bad_file(tmp_path, capsys):

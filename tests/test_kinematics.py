@@ -176,12 +176,12 @@ def test_geometry_params_round_trip_and_json(tmp_path, actual):
     np.testing.assert_array_equal(g.upper, actual.upper)
     np.testing.assert_array_equal(g.lower, actual.lower)
     path = tmp_path / "g.json"
-    sj.save_geometry(g, path)
-    back = sj.load_geometry(path)
+    sj.save_mechanism(g, path)
+    back = sj.load_mechanism(path)
     for a, b in ((g.upper, back.upper), (g.lower, back.lower), (g.v0, back.v0)):
         np.testing.assert_array_equal(a, b)
     toml = tmp_path / "g.toml"
     toml.write_text("params = [" + ", ".join(repr(float(x)) for x in np.asarray(actual.params)) + "]\n")
-    np.testing.assert_array_equal(sj.load_geometry(toml).params, actual.params)
+    np.testing.assert_array_equal(sj.load_mechanism(toml).params, actual.params)
     with pytest.raises(ValueError, match="preset"):
-        sj.preset_geometry("true")
+        sj.mechanism.preset("true")

@@ -1,4 +1,4 @@
-"""The batched fast paths agree with the reference kinematics (stewart_jax._kinematics)."""
+"""The batched fast paths agree with the reference kinematics (`stewart_jax.solve_inverse_kinematics`)."""
 
 import jax
 import jax.numpy as jnp
@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 import stewart_jax as sj
-from stewart_jax.mechanism._batched import (
-    _POLY_RANGE,
-    _sincos_poly,
+from stewart_jax.mechanism import (
     forward_kinematics_newton,
     inverse_kinematics_sharded,
     inverse_kinematics_soa,
 )
+
+POLY_RANGE = 0.5  # rad: the documented range of the fast path's polynomial sin/cos
 
 
 def travel_poses(seed: int, n: int) -> np.ndarray:
@@ -49,7 +49,7 @@ def test_ik_soa_matches_reference(name):
 def test_ik_soa_exact_branch_beyond_polynomial_range():
     g = sj.actual_geometry()
     poses = travel_poses(1, 32)
-    poses[5, 4] = _POLY_RANGE + 0.1  # outside the polynomial's range → jnp.sin/cos path
+    poses[5, 4] = POLY_RANGE + 0.1  # outside the polynomial's range → jnp.sin/cos path
     ref = ik_ref(g, poses)
     got = ik_soa(g, poses.T)
     np.testing.assert_allclose(np.asarray(got.strokes).T, ref.strokes, rtol=0, atol=1e-12)
@@ -87,11 +87,20 @@ def test_ik_soa_rejects_wrong_layout():
         inverse_kinematics_soa(sj.nominal_geometry(), np.zeros((10, 6)))
 
 
-def test_polynomial_sincos_is_within_an_ulp_or_two():
-    x = jnp.linspace(-_POLY_RANGE, _POLY_RANGE, 10001)
-    s, c = _sincos_poly(x)
-    assert float(jnp.max(jnp.abs(s - jnp.sin(x)))) <= 2.3e-16
-    assert float(jnp.max(jnp.abs(c - jnp.cos(x)))) <= 2.3e-16
+def test_polynomial_branch_matches_the_libm_branch():
+    # The same poses through the polynomial sin/cos (every angle within ±0.5 rad) and through
+    # jnp.sin/cos (one extra pose beyond the range switches the whole batch). A 1-ulp error in
+    # sin/cos moves a ~200 mm leg by ~4e-14 mm, so 1e-13 mm bounds a polynomial that is within
+    # an ulp or two over the whole range, ends included.
+    g = sj.actual_geometry()
+    x = np.linspace(-POLY_RANGE, POLY_RANGE, 2001)
+    poses = np.zeros((3 * len(x), 6))
+    for k in range(3):
+        poses[k * len(x):(k + 1) * len(x), 3 + k] = x
+    poly = inverse_kinematics_soa(g, poses.T).strokes
+    beyond = np.concatenate([poses, [[0, 0, 0, 0, 0, POLY_RANGE + 0.1]]])
+    exact = inverse_kinematics_soa(g, beyond.T).strokes[:, :-1]
+    np.testing.assert_allclose(poly, exact, rtol=0, atol=1e-13)
 
 
 def test_analytic_jacobian_matches_autodiff():
@@ -141,7 +150,7 @@ import jax
 jax.config.update("jax_num_cpu_devices", 2)
 import numpy as np
 import stewart_jax as sj
-from stewart_jax.mechanism._batched import inverse_kinematics_sharded
+from stewart_jax.mechanism import inverse_kinematics_sharded
 g = sj.actual_geometry()
 rng = np.random.default_rng(8)
 for n in (33, 34):  # odd: padded to the device count

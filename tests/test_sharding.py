@@ -14,7 +14,7 @@ CHILD = r"""
 import json, sys
 import jax
 import stewart_jax  # noqa: F401
-from stewart_jax.study._study import run_study
+from stewart_jax.study import run_study
 assert len(jax.devices()) == 4, jax.devices()
 out = {}
 for nd in (1, 2, 4):

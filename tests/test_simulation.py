@@ -6,7 +6,7 @@ import stewart_jax as sj
 
 
 def test_plan120_structure():
-    plan = np.asarray(sj.sampling_plan_120())
+    plan = np.asarray(sj.calibration.sampling_plan_120())
     assert plan.shape == (120, 6)
     assert len({tuple(p) for p in plan}) == 120
     disp = {tuple(p) for p in plan[:, :3]}
@@ -25,7 +25,7 @@ def test_validation_poses_in_travel_and_off_plan():
     val = np.asarray(sj.validation_poses(jax.random.key(3)))
     assert val.shape == (42, 6)
     assert np.all(np.abs(val[:, :3]) <= 1.0) and np.all(np.abs(val[:, 3:]) <= np.deg2rad(1.0))
-    plan = np.asarray(sj.sampling_plan_120())
+    plan = np.asarray(sj.calibration.sampling_plan_120())
     assert np.min(np.abs(val[:, None] - plan[None]).max(-1)) > 1e-6
     # Excluding a pose forces a redraw even for an exact hit.
     val2 = np.asarray(sj.validation_poses(jax.random.key(3), exclude=jnp.asarray(val[:1])))
@@ -51,17 +51,18 @@ def test_rigid_fit_recovers_exact_transform():
     angles = rng.uniform(-0.3, 0.3, 3)
     R = np.asarray(sj.rotation_matrix(jnp.asarray(angles)))
     t = rng.normal(size=3)
-    rot, trans = sj.rigid_fit(jnp.asarray(body), jnp.asarray(body @ R.T + t))
+    rot, trans = sj.calibration.rigid_fit(jnp.asarray(body), jnp.asarray(body @ R.T + t))
     np.testing.assert_allclose(rot, R, atol=1e-13)
     np.testing.assert_allclose(trans, t, atol=1e-12)
 
 
 def test_tracker_measurement_noise_level(actual):
-    tracker = sj.default_tracker()
+    tracker = sj.calibration.default_tracker()
     pose = jnp.array([0.3, -0.2, 0.1, 0.005, -0.01, 0.008])
     keys = jax.random.split(jax.random.key(5), 2000)
-    meas = np.asarray(jax.vmap(sj.tracker_measure, in_axes=(0, None, None, None))(keys, tracker, pose, actual.v0))
-    exact = sj.tracker_measure(keys[0], sj.LaserTracker(tracker.balls, 0.0), pose, actual.v0)
+    measure = jax.vmap(sj.calibration.tracker_measure, in_axes=(0, None, None, None))
+    meas = np.asarray(measure(keys, tracker, pose, actual.v0))
+    exact = sj.calibration.tracker_measure(keys[0], sj.calibration.LaserTracker(tracker.balls, 0.0), pose, actual.v0)
     np.testing.assert_allclose(exact, pose, atol=1e-12)
     err = meas - np.asarray(pose)
     # The centroid of 3 points averages the noise: translation σ ≈ 3 µm/√3 for a fit about the

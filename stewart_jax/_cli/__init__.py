@@ -1,4 +1,4 @@
-"""The ``stewart-jax`` command line (SPEC §6)."""
+"""The ``stewart-jax`` command line (``docs/conventions.md`` lists its files and JSON keys)."""
 
 from __future__ import annotations
 
@@ -16,11 +16,13 @@ ALL_METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "neld
 def _cmd_simulate(args: argparse.Namespace) -> int:
     import jax
 
-    from ..mechanism._pss import load_geometry
     from ..calibration._csv import write_csv
     from ..calibration._simulation import default_tracker, plan_poses, simulate_measurements
+    from ..mechanism._registry import load_mechanism
 
-    nominal, true = load_geometry(args.nominal), load_geometry(args.true)
+    nominal, true = load_mechanism(args.nominal), load_mechanism(args.true)
+    if type(nominal) is not type(true):
+        raise SystemExit(f"simulate: --nominal is a {nominal.family}, --true a {true.family}; give one family")
     k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
     targets = plan_poses(args.plan, k_plan)
     tracker = default_tracker(sigma_um=args.tracker_sigma_um) if args.tracker else None
@@ -40,13 +42,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     import jax
 
-    from ..calibration._problem import calibration_problem
-    from ..mechanism._pss import geometry_from_params, load_geometry, save_geometry
     from ..calibration._csv import read_csv
+    from ..calibration._problem import calibration_problem
+    from ..mechanism._registry import load_mechanism, save_mechanism
     from ..optimise._result import STATUS_NAMES
 
     data = read_csv(args.file)
-    nominal = load_geometry(args.geometry)
+    nominal = load_mechanism(args.geometry)
     problem = calibration_problem(data, nominal, args.half_width)
     options = {}
     if args.max_evaluations is not None:
@@ -70,7 +72,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     m = data.n_poses
     from ..calibration._identifiability import calibration_uncertainty
 
-    unc = calibration_uncertainty(geometry_from_params(params, nominal.v0), data.poses, args.sigma_um,
+    unc = calibration_uncertainty(nominal.with_params(params), data.poses, args.sigma_um,
                                   args.sigma_arcsec)
     out = {
         "method": args.method,
@@ -101,13 +103,13 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=2)
     if args.out_geometry:
-        save_geometry(geometry_from_params(params, nominal.v0), args.out_geometry)
+        save_mechanism(nominal.with_params(params), args.out_geometry)
     if args.plot:
         from .. import plotting
         from ..calibration._problem import stroke_residuals
 
-        before = np.asarray(stroke_residuals(nominal.params, data, nominal.v0)).reshape(-1, 6) * 1e3
-        after = np.asarray(stroke_residuals(result.params, data, nominal.v0)).reshape(-1, 6) * 1e3
+        before = np.asarray(stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * 1e3
+        after = np.asarray(stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * 1e3
         plotting.show(plotting.plot_stroke_residuals({"nominal": before, f"calibrated ({args.method})": after},
                                                      sigma_um=args.sigma_um), args.plot)
     if not args.json:

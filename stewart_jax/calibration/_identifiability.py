@@ -8,11 +8,11 @@ O2 of Driels M. R. & Pathre U. S., IEEE Trans. Robotics and Automation 6(2), 199
 condition number), O3 (minimum singular value) and O4 (noise amplification index σ_min²/σ_max)
 of Nahvi A. & Hollerbach J. M., Proc. IEEE ICRA 1996.
 
-The identification Jacobian is ``J = ∂IK(P'_j, u)/∂u`` stacked over poses (6m × 36, the
-negative of ∂E/∂u of seed 000 eq. 8). The residual noise comes from the pose measurement:
+The identification Jacobian is ``J = ∂IK(P'_j, u)/∂u`` stacked over poses (6m × n, the
+negative of ∂E/∂u of Wang et al. 2018, eq. 8). The residual noise comes from the pose measurement:
 ``e_j = q'_j − IK(P'_j, u)`` with ``P'_j = P_j + δP_j`` gives ``δe_j = −J_P,j·δP_j``, so each
 pose's six residuals have covariance ``C_j = J_P,j·Σ_P·J_P,jᵀ`` (``J_P`` the kinematic
-Jacobian). The unweighted least-squares estimate of seed 000 then has the sandwich covariance
+Jacobian). The unweighted least-squares estimate of the paper then has the sandwich covariance
 ``(JᵀJ)⁺·Jᵀ·C·J·(JᵀJ)⁺``, which is ``σ²(JᵀJ)⁻¹`` for i.i.d. stroke noise.
 """
 
@@ -25,18 +25,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._kinematics import kinematic_jacobian
 from ._problem import ARCSEC, UM
-from ..mechanism._pss import Geometry, geometry_from_params
-from ..mechanism._kinematics import kinematic_jacobian, solve_inverse_kinematics
 
 
-def identification_jacobian(geometry: Geometry, poses: Float[Array, "m 6"]) -> Float[Array, "6m 36"]:
+def identification_jacobian(geometry: AbstractMechanism, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
     """``∂IK(P_j, u)/∂u`` at ``u = geometry.params``, stacked over the poses (mm/mm)."""
-
-    def strokes(u):
-        return solve_inverse_kinematics(geometry_from_params(u, geometry.v0), poses).strokes.reshape(-1)
-
-    return jax.jacfwd(strokes)(geometry.params)
+    return geometry.parameter_jacobian(poses)
 
 
 def pose_noise_covariance(sigma_um: float, sigma_arcsec: float) -> Float[Array, "6 6"]:
@@ -45,7 +41,7 @@ def pose_noise_covariance(sigma_um: float, sigma_arcsec: float) -> Float[Array, 
 
 
 def stroke_noise_covariance(
-    geometry: Geometry, poses: Float[Array, "m 6"], pose_cov: Float[Array, "6 6"]
+    geometry: AbstractMechanism, poses: Float[Array, "m 6"], pose_cov: Float[Array, "6 6"]
 ) -> Float[Array, "m 6 6"]:
     """``C_j = J_P,j·Σ_P·J_P,jᵀ``: covariance of the six stroke residuals of each pose."""
     jp = jax.vmap(kinematic_jacobian, in_axes=(None, 0))(geometry, poses)
@@ -61,18 +57,18 @@ class IdentifiabilityReport(NamedTuple):
     rank: int
     """Numerical rank at ``rtol`` relative to the largest singular value."""
     unidentifiable: np.ndarray
-    """``(36 − rank, 36)``: parameter combinations (unit vectors in mm) the poses cannot see."""
+    """``(n − rank, n)``: parameter combinations (unit vectors in mm) the poses cannot see."""
     observability: dict[str, float]
     """O1 (Borm & Menq), O2 (Driels & Pathre), O3 and O4 (Nahvi & Hollerbach)."""
     param_cov: np.ndarray
-    """``(36, 36)`` predicted covariance of the least-squares estimate (mm²), on the
+    """``(n, n)`` predicted covariance of the least-squares estimate (mm²), on the
     identifiable subspace (pseudo-inverse)."""
     param_std: np.ndarray
-    """``(36,)`` square roots of the diagonal of ``param_cov`` (mm)."""
+    """``(n,)`` square roots of the diagonal of ``param_cov`` (mm)."""
 
 
 def identifiability_report(
-    geometry: Geometry,
+    geometry: AbstractMechanism,
     poses: Float[Array, "m 6"],
     sigma_um: float = 0.1,
     sigma_arcsec: float = 0.1,
@@ -84,7 +80,7 @@ def identifiability_report(
     The Jacobian's columns are scaled to unit norm before the SVD (Hollerbach & Wampler's
     recommendation when parameters share a unit and no prior scale is known), so the
     singular values and indices do not depend on how far each joint is from the origin.
-    The observability indices use the ``n = 36`` scaled singular values: O1 =
+    The observability indices use the ``n`` (36 for the 6-PSS) scaled singular values: O1 =
     (Π σ_i)^(1/n)/√(6m), O2 = σ_min/σ_max, O3 = σ_min, O4 = σ_min²/σ_max.
     """
     J = np.asarray(identification_jacobian(geometry, poses))
@@ -121,8 +117,8 @@ def identifiability_report(
 
 
 def control_error_sensitivity(
-    calibrated: Geometry, targets: Float[Array, "n 6"]
-) -> Float[Array, "n 6 36"]:
+    calibrated: AbstractMechanism, targets: Float[Array, "n 6"]
+) -> Float[Array, "k 6 n"]:
     """``∂P_reached/∂u_cal`` at each target: how an error in the calibrated parameters moves
     the pose the true mechanism reaches when commanded with ``IK(P, u_cal)``.
 
@@ -138,7 +134,7 @@ def control_error_sensitivity(
 
 
 def predicted_control_error_std(
-    calibrated: Geometry, targets: Float[Array, "n 6"], param_cov: np.ndarray
+    calibrated: AbstractMechanism, targets: Float[Array, "n 6"], param_cov: np.ndarray
 ) -> np.ndarray:
     """``(n, 6)`` predicted standard deviation of the control error at each target, in µm
     (dx, dy, dz) and ″ (φ, θ, ψ): the Cramér–Rao floor of an unbiased estimator propagated
@@ -173,7 +169,7 @@ def _criterion(info: np.ndarray, kind: str) -> float:
 
 
 def plan_poses_optimal(
-    geometry: Geometry,
+    geometry: AbstractMechanism,
     candidates: Float[Array, "k 6"],
     m: int,
     criterion: str = "O1",
@@ -191,19 +187,22 @@ def plan_poses_optimal(
 
     NOTE: the Jacobian columns are scaled once, by their norms over the whole candidate set,
     so that the criterion compares plans on a common scale. A small ridge ``1e-9·I`` makes the
-    first greedy steps (fewer than 6 poses, rank < 36) well defined.
+    first greedy steps (fewer than n/6 poses, rank < n) well defined.
     """
     if criterion not in ("O1", "O3"):
         raise ValueError(f"criterion must be 'O1' or 'O3', got {criterion!r}")
     cand = np.asarray(candidates, dtype=np.float64)
-    if m * 6 < 36 or m > len(cand):
-        raise ValueError(f"m must satisfy 6 ≤ m ≤ {len(cand)} (36 parameters, 6 residuals per pose), got {m}")
-    J = np.asarray(identification_jacobian(geometry, jnp.asarray(cand))).reshape(len(cand), 6, 36)
-    scale = np.linalg.norm(J.reshape(-1, 36), axis=0)
+    n = geometry.n_params
+    if m * 6 < n or m > len(cand):
+        raise ValueError(
+            f"m must satisfy {-(-n // 6)} ≤ m ≤ {len(cand)} ({n} parameters, 6 residuals per pose), got {m}"
+        )
+    J = np.asarray(identification_jacobian(geometry, jnp.asarray(cand))).reshape(len(cand), 6, n)
+    scale = np.linalg.norm(J.reshape(-1, n), axis=0)
     J = J / np.where(scale > 0, scale, 1.0)
     Jt = np.swapaxes(J, 1, 2)
     per_pose = Jt @ J
-    ridge = 1e-9 * np.eye(36)
+    ridge = 1e-9 * np.eye(n)
 
     def gains(info):
         if criterion == "O1":
@@ -240,7 +239,7 @@ def plan_poses_optimal(
 
 
 def calibration_uncertainty(
-    calibrated: Geometry,
+    calibrated: AbstractMechanism,
     poses: Float[Array, "m 6"],
     sigma_um: float = 0.1,
     sigma_arcsec: float = 0.1,
@@ -249,7 +248,7 @@ def calibration_uncertainty(
     """Uncertainty of a least-squares calibration from ``poses`` measured with pose noise
     σ = ``sigma_um`` µm / ``sigma_arcsec`` ″, linearised at the calibrated geometry.
 
-    Returns ``param_std`` (36, mm), ``rank`` and ``condition_number`` of the identification
+    Returns ``param_std`` (n, mm), ``rank`` and ``condition_number`` of the identification
     Jacobian, and ``control_error_std`` ``(n, 6)`` (µm, ″) — the predicted standard deviation of
     the control error at ``evaluation_poses`` (default: the calibration poses); ±2 of it is the
     ~95 % band of an unbiased calibration.

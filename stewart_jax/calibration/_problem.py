@@ -1,9 +1,10 @@
-"""The 36-parameter calibration model and the control-error criterion.
+"""The calibration model and the control-error criterion, for any mechanism family.
 
-Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018, §1.2: stroke residual
+Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope secondary mirror
+adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.2: reading residual
 (eq. 7), stacked residual vector (eq. 8), least-squares objective S (eq. 9); §3: accuracy
-judged by the control error after calibration. SPEC §3 fixes the feasible box Ω and the
-control-error definition.
+judged by the control error after calibration. The feasible box Ω is the nominal parameters
+± a half-width (the paper's experiment: 2.5 mm).
 
 Every function here is pure and written for one parameter vector and one data set, so that
 ``jax.vmap`` batches it over a population of parameter vectors (the optimisers) and over
@@ -19,18 +20,19 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .._checks import check_array, check_poses
 from .._units import (
     ARCSEC as ARCSEC,
     COMPONENTS as COMPONENTS,
     UM as UM,
     error_in_report_units as error_in_report_units,
 )
-from ..mechanism._kinematics import check_array, check_poses, forward_kinematics, solve_inverse_kinematics
-from ..mechanism._pss import N_PARAMS, Geometry, geometry_from_params
+from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._kinematics import forward_kinematics
 
 
 class CalibrationData(NamedTuple):
-    """Measured data of ``m`` poses (seed 000 eqs. 7–8; SPEC §6 columns).
+    """Measured data of ``m`` poses (Wang et al. 2018, eqs. 7–8; the measurement CSV's columns).
 
     - ``strokes``: ``Float[Array, "m 6"]``, measured slider strokes ``q'`` (mm).
     - ``poses``: ``Float[Array, "m 6"]``, measured poses ``P'_a`` (mm, rad).
@@ -86,58 +88,66 @@ def make_calibration_data(
 
 
 def stroke_residuals(
-    params: Float[Array, "36"], data: CalibrationData, v0: Float[Array, "3"]
+    params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, "6m"]:
-    """``E(u) = [e_11 … e_6m]``, ``e_j = q'_j − IK(P'_aj, u)`` (eqs. 7–8), in mm.
+    """``E(u) = [e_11 … e_6m]``, ``e_j = q'_j − IK(P'_aj, u)`` (eqs. 7–8), in mm, where
+    ``IK(·, u)`` is ``mechanism.with_params(u)`` (``mechanism`` supplies everything that is not
+    calibrated, e.g. the 6-PSS's ``v0``).
 
-    NOTE: where a parameter vector makes a measured pose unreachable the square root of eq. 4
-    is taken of 0, which keeps the residual finite and continuous for least-squares solvers;
-    :func:`calibration_cost` reports such a vector as +inf.
+    NOTE: where a parameter vector makes a measured pose unreachable the family's inverse
+    kinematics keeps the reading finite (for the 6-PSS the square root of eq. 4 is taken of 0),
+    which keeps the residual continuous for least-squares solvers; :func:`calibration_cost`
+    reports such a vector as +inf.
     """
-    sol = solve_inverse_kinematics(geometry_from_params(params, v0), data.poses)
+    sol = mechanism.with_params(params).solve_inverse_kinematics(data.poses)
     return (data.strokes - sol.strokes).reshape(-1)
 
 
 def calibration_cost(
-    params: Float[Array, "36"], data: CalibrationData, v0: Float[Array, "3"]
+    params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, ""]:
     """``S(u) = Σ_j Σ_i e_ij²`` (eq. 9), mm²; +inf where a measured pose is unreachable
     under ``u`` or the value is not finite (so that optimisers reject it)."""
-    sol = solve_inverse_kinematics(geometry_from_params(params, v0), data.poses)
+    sol = mechanism.with_params(params).solve_inverse_kinematics(data.poses)
     s = jnp.sum((data.strokes - sol.strokes) ** 2)
     ok = jnp.all(sol.reachable) & jnp.isfinite(s)
     return jnp.where(ok, s, jnp.inf)
 
 
 class CalibrationProblem(eqx.Module):
-    """A calibration problem: data, the frame offset ``v0``, the feasible box Ω and the
+    """A calibration problem: data, the nominal mechanism, the feasible box Ω and the
     starting (nominal) parameters.
 
     - ``data``: :class:`CalibrationData` of ``m`` poses.
-    - ``v0``: ``Float[Array, "3"]`` (mm).
-    - ``lower``, ``upper``: ``Float[Array, "36"]``, the box Ω (mm).
-    - ``initial``: ``Float[Array, "36"]``, the nominal parameters (mm).
+    - ``mechanism``: the nominal :class:`~stewart_jax.mechanism.AbstractMechanism`; its
+      ``with_params(u)`` is the model being calibrated.
+    - ``lower``, ``upper``: ``Float[Array, " n"]``, the box Ω (mm).
+    - ``initial``: ``Float[Array, " n"]``, the nominal parameters (mm).
     """
 
     data: CalibrationData
-    v0: Float[Array, "3"]
-    lower: Float[Array, "36"]
-    upper: Float[Array, "36"]
-    initial: Float[Array, "36"]
+    mechanism: AbstractMechanism
+    lower: Float[Array, " n"]
+    upper: Float[Array, " n"]
+    initial: Float[Array, " n"]
 
-    def residuals(self, params: Float[Array, "36"]) -> Float[Array, "6m"]:
-        return stroke_residuals(params, self.data, self.v0)
+    def residuals(self, params: Float[Array, " n"]) -> Float[Array, "6m"]:
+        return stroke_residuals(params, self.data, self.mechanism)
 
-    def cost(self, params: Float[Array, "36"]) -> Float[Array, ""]:
-        return calibration_cost(params, self.data, self.v0)
+    def cost(self, params: Float[Array, " n"]) -> Float[Array, ""]:
+        return calibration_cost(params, self.data, self.mechanism)
+
+    def calibrated(self, params: Float[Array, " n"]) -> AbstractMechanism:
+        """The mechanism with the calibrated parameters ``params``."""
+        return self.mechanism.with_params(params)
 
 
 def feasible_box(
-    nominal: Geometry, half_width: float = 10.0
-) -> tuple[Float[Array, "36"], Float[Array, "36"]]:
-    """Ω = nominal ± ``half_width`` (mm) per parameter. SPEC §3: the paper's experiment uses
-    2.5 mm; the simulation study needs ≥ 7 mm (Table 1's actual values lie up to 6.9 mm from
-    nominal) and uses 10 mm."""
+    nominal: AbstractMechanism, half_width: float = 10.0
+) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
+    """Ω = nominal ± ``half_width`` (mm) per parameter. The paper's experiment uses 2.5 mm;
+    the simulation study needs ≥ 7 mm (Table 1's actual values lie up to 6.9 mm from nominal)
+    and uses 10 mm."""
     if not half_width > 0:
         raise ValueError(f"half_width must be positive (mm), got {half_width}")
     u = nominal.params
@@ -145,20 +155,25 @@ def feasible_box(
 
 
 def calibration_problem(
-    data: CalibrationData, nominal: Geometry, half_width: float = 10.0
+    data: CalibrationData, nominal: AbstractMechanism, half_width: float = 10.0
 ) -> CalibrationProblem:
-    """The problem of seed 000 §1.2 with Ω = nominal ± ``half_width`` mm."""
-    if data.n_poses * 6 < N_PARAMS:
+    """The problem of Wang et al. (2018) §1.2 with Ω = nominal ± ``half_width`` mm."""
+    if not isinstance(nominal, AbstractMechanism):
+        raise TypeError(
+            f"nominal must be a mechanism (e.g. stewart_jax.nominal_geometry()), got {type(nominal).__name__}"
+        )
+    n_params = nominal.n_params
+    if data.n_poses * 6 < n_params:
         raise ValueError(
-            f"{data.n_poses} poses give {6 * data.n_poses} residuals for {N_PARAMS} parameters: "
-            "at least 6 poses are needed (the paper uses 8 in simulation, 120 in the experiment)"
+            f"{data.n_poses} poses give {6 * data.n_poses} residuals for {n_params} parameters: "
+            f"at least {-(-n_params // 6)} poses are needed (the paper uses 8 in simulation, 120 in the experiment)"
         )
     lo, hi = feasible_box(nominal, half_width)
-    return CalibrationProblem(data, nominal.v0, lo, hi, nominal.params)
+    return CalibrationProblem(data, nominal, lo, hi, nominal.params)
 
 
 class ControlError(NamedTuple):
-    """Control error at target poses (SPEC §3).
+    """Control error at target poses (Wang et al. 2018, §3).
 
     - ``errors``: ``Float[Array, "n 6"]``, achieved minus target pose (mm, rad).
     - ``converged``: ``Bool[Array, "n"]``, forward kinematics of the true mechanism converged.
@@ -169,11 +184,11 @@ class ControlError(NamedTuple):
 
 
 def control_error(
-    calibrated: Geometry, true: Geometry, targets: Float[Array, "n 6"]
+    calibrated: AbstractMechanism, true: AbstractMechanism, targets: Float[Array, "n 6"]
 ) -> ControlError:
     """Command each target with the calibrated model, ``q = IK(P, u_cal)``, move the true
-    mechanism, ``FK(q, u_true)``, and return the pose error (seed 000 §3, SPEC §3)."""
-    q = solve_inverse_kinematics(calibrated, targets)
+    mechanism, ``FK(q, u_true)``, and return the pose error (Wang et al. 2018, §3)."""
+    q = calibrated.solve_inverse_kinematics(targets)
     fk = forward_kinematics(true, q.strokes, targets)
     return ControlError(fk.poses - targets, fk.converged & q.reachable)
 

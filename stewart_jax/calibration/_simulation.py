@@ -4,7 +4,9 @@ Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018: §3 (simulat
 protocol: 8 random target poses, strokes from the nominal model, actual pose from the true
 model, Gaussian pose noise), §4 (travel ±1 mm / ±1°, the 120-pose sampling plan of Fig. 5 and
 Table 3, 42 validation poses, a laser tracker with 3 µm error seeing 3 target balls).
-SPEC §3 resolves the noise reading (σ = 0.1 µm and σ = 0.1″) and the plan's points.
+The paper's pose noise "±0.1 µm, ±0.1°" is read as Gaussian σ = 0.1 µm and σ = 0.1″ (0.1° is
+larger than the errors the paper reports after calibration); ``docs/conventions.md`` lists this
+and the plan's points.
 
 All functions are pure and take explicit PRNG keys; vmap them over keys for Monte Carlo.
 """
@@ -20,14 +22,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, PRNGKeyArray
 
+from .._math import euler_angles, rotation_matrix
+from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._kinematics import forward_kinematics
 from ._problem import ARCSEC, UM, CalibrationData
-from ..mechanism._pss import Geometry
-from ..mechanism._kinematics import euler_angles, forward_kinematics, rotation_matrix, solve_inverse_kinematics
 
 TRAVEL_MM = 1.0
-"""Translation travel ±1 mm (seed 000 §4)."""
+"""Translation travel ±1 mm (Wang et al. 2018, §4)."""
 TRAVEL_RAD = float(np.deg2rad(1.0))
-"""Rotation travel ±1° (seed 000 §4)."""
+"""Rotation travel ±1° (Wang et al. 2018, §4)."""
 
 PLANS = ("paper8", "plan120", "validation42")
 
@@ -43,7 +46,8 @@ def random_poses(
 def sampling_plan_120(
     inner_mm: float = 0.5, outer_mm: float = 1.0, angle_rad: float = float(np.deg2rad(0.5))
 ) -> Float[Array, "120 6"]:
-    """The 120-pose sampling plan (seed 000 §4, Fig. 5, Table 3; SPEC §3).
+    """The 120-pose sampling plan (Wang et al. 2018, §4, Fig. 5, Table 3;
+    our reading of its points, see ``docs/conventions.md``).
 
     15 displacement points — the 8 corners of the ±``inner_mm`` cube, the centre, and
     ±``outer_mm`` on each axis — each combined with the 8 sign combinations of
@@ -59,7 +63,7 @@ def sampling_plan_120(
 def validation_poses(
     key: PRNGKeyArray, n: int = 42, exclude: Float[Array, "k 6"] | None = None
 ) -> Float[Array, "n 6"]:
-    """``n`` poses uniform in the travel, none on the sampling plan (seed 000 §4: 42
+    """``n`` poses uniform in the travel, none on the sampling plan (Wang et al. (2018) §4: 42
     non-sampling points). A draw within 1e-6 (mm or rad) of an excluded pose is redrawn."""
     exclude = sampling_plan_120() if exclude is None else exclude
     out = np.empty((0, 6))
@@ -84,7 +88,7 @@ def plan_poses(plan: str, key: PRNGKeyArray) -> Float[Array, "n 6"]:
 
 
 class LaserTracker(eqx.Module):
-    """A laser tracker measuring target balls fixed on the moving platform (seed 000 §4).
+    """A laser tracker measuring target balls fixed on the moving platform (Wang et al. 2018, §4).
 
     - ``balls``: ``Float[Array, "k 3"]``, ball centres in frame A (mm), ``k ≥ 3``.
     - ``sigma_mm``: standard deviation of each measured coordinate (mm); 3 µm in the paper.
@@ -98,7 +102,7 @@ def default_tracker(
     radius_mm: float = 100.0, height_mm: float = 90.0, sigma_um: float = 3.0
 ) -> LaserTracker:
     """Three balls ``radius_mm`` from A's z axis, 120° apart, ``height_mm`` above A's origin
-    (SPEC §3 default), each coordinate measured with σ = ``sigma_um``."""
+    (the paper gives no layout; this is our default), each coordinate measured with σ = ``sigma_um``."""
     ang = np.deg2rad([90.0, 210.0, 330.0])
     balls = np.stack([radius_mm * np.cos(ang), radius_mm * np.sin(ang), np.full(3, height_mm)], -1)
     return LaserTracker(jnp.asarray(balls), sigma_um * UM)
@@ -129,7 +133,7 @@ def tracker_measure(
 
 
 class SimulatedMeasurement(NamedTuple):
-    """A simulated calibration run (seed 000 §3).
+    """A simulated calibration run (Wang et al. 2018, §3).
 
     - ``data``: :class:`CalibrationData`, commanded strokes and measured poses.
     - ``targets``: ``Float[Array, "m 6"]``, the commanded target poses ``P0``.
@@ -145,21 +149,21 @@ class SimulatedMeasurement(NamedTuple):
 
 def simulate_measurements(
     key: PRNGKeyArray,
-    nominal: Geometry,
-    actual: Geometry,
+    nominal: AbstractMechanism,
+    actual: AbstractMechanism,
     targets: Float[Array, "m 6"],
     sigma_um: float = 0.1,
     sigma_arcsec: float = 0.1,
     tracker: LaserTracker | None = None,
 ) -> SimulatedMeasurement:
-    """Seed 000 §3: strokes ``q = IK(P0, u_nominal)`` (no control error), actual pose
+    """Wang et al. (2018) §3: readings ``q = IK(P0, u_nominal)`` (no control error), actual pose
     ``Pa = FK(q, u_actual)``, measured pose ``Pa`` + noise.
 
     Pose noise is Gaussian with σ = ``sigma_um`` µm per translation and ``sigma_arcsec`` ″ per
-    angle (SPEC §3's reading of the paper's "±0.1 µm, ±0.1°"). With a ``tracker`` the pose is
+    angle (our reading of the paper's "±0.1 µm, ±0.1°"). With a ``tracker`` the pose is
     instead measured through it (3 balls, rigid fit) and the two sigmas are not used.
     """
-    q = solve_inverse_kinematics(nominal, targets).strokes
+    q = nominal.solve_inverse_kinematics(targets).strokes
     fk = forward_kinematics(actual, q, targets)
     pa = fk.poses
     if tracker is None:

@@ -1,1 +1,47 @@
-"""(filled in below)"""
+"""Mechanisms: the abstraction every hexapod family implements, its families and kinematics.
+
+- :class:`AbstractMechanism` — a pytree of geometry with ``params``/``with_params``, inverse
+  kinematics with a reachability margin, pose and parameter Jacobians, a geometry-file dict.
+- :class:`PSSMechanism` (alias ``Geometry``) — the 6-PSS of Wang et al. (2018).
+- :func:`forward_kinematics` — one batched Newton solve with per-pose status for every family.
+- Families and presets are registries (:func:`register_family`, :func:`register_preset`);
+  :func:`load_mechanism` reads a preset name or a JSON/TOML geometry file naming its family.
+"""
+
+from ._abstract import AbstractMechanism as AbstractMechanism, IKSolution as IKSolution
+from ._batched import (
+    forward_kinematics_newton as forward_kinematics_newton,
+    inverse_kinematics_sharded as inverse_kinematics_sharded,
+    inverse_kinematics_soa as inverse_kinematics_soa,
+)
+from ._kinematics import (
+    FKSolution as FKSolution,
+    forward_kinematics as forward_kinematics,
+    ik_and_jacobian as ik_and_jacobian,
+    inverse_kinematics as inverse_kinematics,
+    kinematic_jacobian as kinematic_jacobian,
+    solve_inverse_kinematics as solve_inverse_kinematics,
+    upper_joints_in_base as upper_joints_in_base,
+)
+from ._pss import (
+    N_PARAMS as N_PARAMS,
+    Geometry as Geometry,
+    PSSMechanism as PSSMechanism,
+    actual_geometry as actual_geometry,
+    geometry_from_dict as geometry_from_dict,
+    geometry_from_params as geometry_from_params,
+    nominal_geometry as nominal_geometry,
+    rod_lengths as rod_lengths,
+)
+from ._registry import (
+    DEFAULT_FAMILY as DEFAULT_FAMILY,
+    families as families,
+    family as family,
+    load_mechanism as load_mechanism,
+    mechanism_from_dict as mechanism_from_dict,
+    preset as preset,
+    presets as presets,
+    register_family as register_family,
+    register_preset as register_preset,
+    save_mechanism as save_mechanism,
+)

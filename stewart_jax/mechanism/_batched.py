@@ -1,9 +1,9 @@
-"""Fast paths for large batches: polynomial-trig IK (one device or sharded) and
-fixed-step Newton FK.
+"""Fast paths for large batches: polynomial-trig 6-PSS IK (one device or sharded) and
+fixed-step Newton FK (any mechanism).
 
-Same mathematics as :mod:`stewart_jax._kinematics` (eq. 4 in its cancellation-free form;
-eqs. 5–6 by Newton's method), arranged for throughput on CPU. ``benchmarks/kinematics.py``
-measures these against :func:`~stewart_jax.solve_inverse_kinematics` /
+Same mathematics as the 6-PSS inverse kinematics of Wang et al. (2018) (eq. 4 in its
+cancellation-free form) and the forward kinematics (eqs. 5–6 by Newton's method),
+arranged for throughput on CPU. ``benchmarks/kinematics.py`` measures these against :func:`~stewart_jax.solve_inverse_kinematics` /
 :func:`~stewart_jax.forward_kinematics` and NumPy (results in ``benchmarks/results/``).
 
 What the measurements say (2-core AMD EPYC, float64, XLA:CPU of jax 0.10):
@@ -37,14 +37,10 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float
 
-from ._pss import Geometry
-from ._kinematics import (
-    FKSolution,
-    IKSolution,
-    check_array,
-    check_poses,
-    ik_and_jacobian,
-)
+from .._checks import check_array, check_poses
+from ._abstract import AbstractMechanism, IKSolution
+from ._kinematics import FKSolution, ik_and_jacobian
+from ._pss import PSSMechanism
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: through x¹³ and x¹⁴. For |x| ≤ 0.5 the
 # truncation error is < 5e-17 and the Horner evaluation agrees with libm to 1 ulp (checked
@@ -83,7 +79,7 @@ def _rotation_rows(angles, sincos):
     )  # fmt: skip
 
 
-def _ik_rows(geometry: Geometry, poses_soa, sincos):
+def _ik_rows(geometry: PSSMechanism, poses_soa, sincos):
     """Eq. 4 leg by leg on rows; returns (strokes, margin) as lists of 6 rows."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rotation_rows(poses_soa[3:6], sincos)
     dx, dy, dz = poses_soa[0], poses_soa[1], poses_soa[2]
@@ -112,7 +108,7 @@ def _ik_rows(geometry: Geometry, poses_soa, sincos):
     return strokes, margins
 
 
-def inverse_kinematics_soa(geometry: Geometry, poses_soa: Float[Array, "6 ..."]) -> IKSolution:
+def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..."]) -> IKSolution:
     """Eq. 4 for poses in structure-of-arrays layout: the fast path for large batches.
 
     ``poses_soa[k]`` is pose component ``k`` of ``[dx, dy, dz, φ, θ, ψ]`` (mm, rad) for every
@@ -137,6 +133,9 @@ def inverse_kinematics_soa(geometry: Geometry, poses_soa: Float[Array, "6 ..."])
     good. Under ``jit``, outputs that are not used are not computed, so
     ``inverse_kinematics_soa(g, p).strokes`` costs only the strokes.
     """
+    if not isinstance(geometry, PSSMechanism):
+        raise TypeError(f"inverse_kinematics_soa is the 6-PSS fast path, got a {type(geometry).__name__}; "
+                        "use solve_inverse_kinematics")
     poses_soa = jnp.asarray(poses_soa)
     if poses_soa.shape[:1] != (6,):
         raise ValueError(
@@ -156,7 +155,7 @@ def inverse_kinematics_soa(geometry: Geometry, poses_soa: Float[Array, "6 ..."])
 
 
 def inverse_kinematics_sharded(
-    geometry: Geometry, poses_soa: Float[Array, "6 N"], mesh: Mesh | None = None
+    geometry: PSSMechanism, poses_soa: Float[Array, "6 N"], mesh: Mesh | None = None
 ) -> IKSolution:
     """:func:`inverse_kinematics_soa` with the batch split over several devices.
 
@@ -220,7 +219,7 @@ def _solve_near_identity(a, b):
     return x
 
 
-def _fk_newton(geometry: Geometry, q, p0, steps: int, tol: float):
+def _fk_newton(geometry: AbstractMechanism, q, p0, steps: int, tol: float):
     """Fixed-step Newton for strokes ``q`` (n, 6) from poses ``p0`` (n, 6)."""
     jac0 = ik_and_jacobian(geometry, jnp.zeros(6, q.dtype))[2]
     # Precondition by the zero-pose Jacobian: J0⁻¹·J stays near I over the travel, so the
@@ -243,7 +242,7 @@ def _fk_newton(geometry: Geometry, q, p0, steps: int, tol: float):
 
 
 def forward_kinematics_newton(
-    geometry: Geometry,
+    geometry: AbstractMechanism,
     strokes: ArrayLike,
     initial_pose: ArrayLike | None = None,
     *,

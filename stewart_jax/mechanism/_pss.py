@@ -1,32 +1,36 @@
-"""Geometry of a 6-PSS Stewart mechanism (seed 000, §1.1–1.2; SPEC §2).
+"""The 6-PSS Stewart mechanism: six vertical sliders, each carrying a fixed-length rod.
 
-The 36 calibration parameters of Wang et al. (2018) are the joint centres: the upper
-(moving-platform) spherical joints ``Ac_i`` in frame A and the lower spherical joints
-``Bc_i`` in frame B at zero slider stroke. The rod lengths are not parameters: they follow
-from the zero pose, ``L_i = |Ac_i + v0 - Bc_i|`` (seed 000, §1.2).
+Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope secondary mirror
+adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.1–1.2: leg vector (eq. 2),
+inverse kinematics (eq. 4), the 36 calibration parameters, Table 1 (the nominal and "actual"
+joint centres used by the simulation study).
 
-Units: mm throughout (SPEC §1).
+The 36 parameters are the joint centres: the upper (moving-platform) spherical joints ``Ac_i``
+in frame A and the lower spherical joints ``Bc_i`` in frame B at zero slider stroke. The rod
+lengths are not parameters: they follow from the zero pose, ``L_i = |Ac_i + v0 - Bc_i|`` (§1.2).
+Slider i moves the lower joint to ``Bc_i + q_i·e_z``. Units: mm.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import tomllib
-from typing import Any
+from typing import Any, ClassVar, NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._math import rotation_matrix
+from ._abstract import AbstractMechanism, IKSolution
+from ._registry import register_family, register_preset
+
 N_LEGS = 6
 N_PARAMS = 36
 
 
-class Geometry(eqx.Module):
-    """Joint centres of a 6-PSS Stewart mechanism, in mm.
+@register_family
+class PSSMechanism(AbstractMechanism):
+    """The 6-PSS mechanism of Wang et al. (2018): joint centres in mm.
 
     A pytree: batch it (``jax.vmap`` over a leading axis of every leaf) to evaluate many
     parameter sets at once.
@@ -36,9 +40,11 @@ class Geometry(eqx.Module):
     - ``upper``: ``Float[Array, "6 3"]``, upper joint centres ``Ac_i`` in the moving frame A.
     - ``lower``: ``Float[Array, "6 3"]``, lower joint centres ``Bc_i`` in the fixed frame B at
       zero slider stroke.
-    - ``v0``: ``Float[Array, "3"]``, position of A's origin in B at the zero pose (SPEC §2;
-      the paper gives no value, the default is the origin).
+    - ``v0``: ``Float[Array, "3"]``, position of A's origin in B at the zero pose (the paper
+      gives no value, the default is the origin).
     """
+
+    family: ClassVar[str] = "6-PSS"
 
     upper: Float[Array, "6 3"]
     lower: Float[Array, "6 3"]
@@ -62,14 +68,76 @@ class Geometry(eqx.Module):
         """Rod lengths ``L_i = |Ac_i + v0 - Bc_i|`` (zero stroke at the zero pose)."""
         return rod_lengths(self)
 
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(f"{side}{i}{c}" for side in ("Ac", "Bc") for i in range(1, 7) for c in "xyz")
+
     @classmethod
-    def from_params(cls, params: ArrayLike, v0: ArrayLike = (0.0, 0.0, 0.0)) -> Geometry:
+    def from_params(cls, params: ArrayLike, v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
         """Build a geometry from the 36-vector of :attr:`params`."""
         return geometry_from_params(params, v0)
+
+    def with_params(self, params: Float[Array, "36"]) -> PSSMechanism:
+        return geometry_from_params(params, self.v0)
+
+    def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
+        """``a_i = T·Ac_i + d + v0``: the upper joint centres in B (eq. 2)."""
+        rot = rotation_matrix(poses[..., 3:])
+        return jnp.einsum("...jk,ik->...ij", rot, self.upper) + poses[..., None, :3] + self.v0
+
+    def solve_inverse_kinematics(self, poses: Float[Array, "... 6"]) -> IKSolution:
+        """Inverse kinematics (eq. 4) with its reachability margin; pure and jittable.
+
+        ``q_i = a_iz − Bc_iz − sqrt(L_i² − (Bc_ix − a_ix)² − (Bc_iy − a_iy)²)``, the root with
+        the slider below the upper joint; ``margin`` is the square-root argument (mm²).
+        ``poses`` may have any leading batch shape; batch over geometries with ``jax.vmap``.
+
+        NOTE: eq. 4 is evaluated in a cancellation-free form. With ``e_i = Ac_i + v0 − Bc_i``
+        the zero-pose leg and ``δ_i = T·Ac_i − Ac_i + d`` the joint's displacement,
+        ``L² − ℓx² − ℓy² = e_z² − δx(2e_x + δx) − δy(2e_y + δy)`` and, rationalising
+        ``q = ℓz − sqrt(m)``, ``q = Σ_k δ_k(2e_k + δ_k) / (ℓz + sqrt(m))``. Strokes of a few mm
+        then keep full relative precision instead of being the difference of two ~200 mm
+        numbers, and ``q`` is exactly 0 at the zero pose for any geometry.
+        """
+        parts = _ik_parts(self, poses)
+        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1))
+
+    def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
+        """Strokes, margins (``(..., 6)``) and the analytic Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``).
+
+        With the rod vector at zero stroke ``ℓ = T·Ac + d + v0 − Bc`` and ``h = sqrt(m)`` its
+        z-extent once the slider has moved, ``q = ℓz − h`` gives ``∂q = ∂ℓz + (ℓx·∂ℓx + ℓy·∂ℓy)/h``
+        with ``∂ℓ/∂d = I``, ``∂ℓ/∂φ = T·(e_x × Ac)``, ``∂ℓ/∂θ = (Rz(ψ)·e_y) × T·Ac`` and
+        ``∂ℓ/∂ψ = e_z × T·Ac``.
+        """
+        parts = _ik_parts(self, poses)
+        rot, w, ell, h = parts.rot, parts.w, parts.ell, parts.root
+        upper = self.upper
+        ax, ay = ell[..., 0] / h, ell[..., 1] / h  # ∂q/∂dx, ∂q/∂dy
+        dphi = -upper[:, 2:3] * rot[..., None, :, 1] + upper[:, 1:2] * rot[..., None, :, 2]
+        sp, cp = jnp.sin(poses[..., 5:6]), jnp.cos(poses[..., 5:6])
+        wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
+        jac = jnp.stack(
+            [
+                ax,
+                ay,
+                jnp.ones_like(ax),
+                dphi[..., 2] + ax * dphi[..., 0] + ay * dphi[..., 1],
+                -sp * wy - cp * wx + (ax * cp + ay * sp) * wz,
+                ay * wx - ax * wy,
+            ],
+            axis=-1,
+        )
+        return parts.strokes, parts.margin, jac
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PSSMechanism:
+        return geometry_from_dict(d)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (mm)."""
         return {
+            "mechanism": self.family,
             "units": "mm",
             "upper": np.asarray(self.upper).tolist(),
             "lower": np.asarray(self.lower).tolist(),
@@ -77,18 +145,48 @@ class Geometry(eqx.Module):
         }
 
 
-def geometry_from_params(params: Float[Array, "36"], v0: ArrayLike = (0.0, 0.0, 0.0)) -> Geometry:
-    """Geometry from the 36-vector of :attr:`Geometry.params` (order ``Ac_1..Ac_6`` then
+Geometry = PSSMechanism
+"""The 6-PSS mechanism under its original name."""
+
+
+class _IKParts(NamedTuple):
+    rot: Array  # T, (..., 3, 3)
+    w: Array  # T·Ac_i, (..., 6, 3)
+    ell: Array  # rod vector at zero stroke, T·Ac_i + d + v0 − Bc_i, (..., 6, 3)
+    growth: Array  # δ(2e + δ), (..., 6, 3)
+    margin: Array  # (..., 6)
+    root: Array  # sqrt(max(margin, 0)), (..., 6)
+    strokes: Array  # (..., 6)
+
+
+def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
+    rot = rotation_matrix(poses[..., 3:])
+    upper = geometry.upper
+    w = jnp.einsum("...jk,ik->...ij", rot, upper)
+    delta = w - upper + poses[..., None, :3]
+    e = upper + geometry.v0 - geometry.lower
+    growth = delta * (2.0 * e + delta)
+    margin = e[:, 2] ** 2 - growth[..., 0] - growth[..., 1]
+    root = jnp.sqrt(jnp.maximum(margin, 0.0))
+    ell = e + delta
+    denom = ell[..., 2] + root
+    rationalised = jnp.sum(growth, axis=-1) / jnp.where(denom > 0, denom, 1.0)
+    strokes = jnp.where(denom > 0, rationalised, ell[..., 2] - root)
+    return _IKParts(rot, w, ell, growth, margin, root, strokes)
+
+
+def geometry_from_params(params: Float[Array, "36"], v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
+    """A 6-PSS mechanism from the 36-vector of :attr:`PSSMechanism.params` (order ``Ac_1..Ac_6`` then
     ``Bc_1..Bc_6``, each x, y, z); traceable, vmap it over ``params``."""
     p = jnp.asarray(params, dtype=jnp.float64)
     if p.shape[-1:] != (N_PARAMS,):
         raise ValueError(f"params must have a last axis of 36, got shape {p.shape}")
     batch = p.shape[:-1]
-    return Geometry(p[..., :18].reshape(*batch, N_LEGS, 3), p[..., 18:].reshape(*batch, N_LEGS, 3), v0)
+    return PSSMechanism(p[..., :18].reshape(*batch, N_LEGS, 3), p[..., 18:].reshape(*batch, N_LEGS, 3), v0)
 
 
-def rod_lengths(geometry: Geometry) -> Float[Array, "6"]:
-    """``L_i = |Ac_i + v0 - Bc_i|`` (seed 000, §1.2)."""
+def rod_lengths(geometry: PSSMechanism) -> Float[Array, "6"]:
+    """``L_i = |Ac_i + v0 - Bc_i|`` (Wang et al. 2018, §1.2)."""
     return jnp.linalg.norm(geometry.upper + geometry.v0 - geometry.lower, axis=-1)
 
 
@@ -103,7 +201,7 @@ def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
     return jnp.asarray(a)
 
 
-# Table 1 of seed 000 (mm). Rows: rod 1..6.
+# Wang et al. (2018), Table 1 (mm). Rows: rod 1..6.
 _NOMINAL_UPPER = np.array(
     [
         [103.6, 34.6, 84.7],
@@ -145,31 +243,24 @@ _ACTUAL_LOWER = np.array(
     ]
 )
 
-PRESETS = ("nominal", "actual")
+@register_preset("nominal")
+def nominal_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
+    """The nominal parameters ``u_0`` of Wang et al. (2018), Table 1."""
+    return PSSMechanism(_NOMINAL_UPPER, _NOMINAL_LOWER, v0)
 
 
-def nominal_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> Geometry:
-    """The nominal parameters ``u_0`` of seed 000, Table 1."""
-    return Geometry(_NOMINAL_UPPER, _NOMINAL_LOWER, v0)
+@register_preset("actual")
+def actual_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
+    """The "true" parameters ``u_a`` of Wang et al. (2018), Table 1, used by the simulation study."""
+    return PSSMechanism(_ACTUAL_UPPER, _ACTUAL_LOWER, v0)
 
 
-def actual_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> Geometry:
-    """The "true" parameters ``u_a`` of seed 000, Table 1, used by the simulation study."""
-    return Geometry(_ACTUAL_UPPER, _ACTUAL_LOWER, v0)
-
-
-def preset_geometry(name: str, v0: ArrayLike = (0.0, 0.0, 0.0)) -> Geometry:
-    """A named preset: ``"nominal"`` or ``"actual"`` (seed 000, Table 1)."""
-    if name == "nominal":
-        return nominal_geometry(v0)
-    if name == "actual":
-        return actual_geometry(v0)
-    raise ValueError(f"unknown geometry preset {name!r}; choose one of {PRESETS} or give a file")
-
-
-def geometry_from_dict(d: dict[str, Any]) -> Geometry:
-    """Inverse of :meth:`Geometry.to_dict`. Accepts either ``upper``/``lower`` (6×3 each) or
+def geometry_from_dict(d: dict[str, Any]) -> PSSMechanism:
+    """Inverse of :meth:`PSSMechanism.to_dict`. Accepts either ``upper``/``lower`` (6×3 each) or
     ``params`` (36 numbers, order ``Ac_1..Ac_6, Bc_1..Bc_6``); ``v0`` optional; lengths in mm."""
+    family = d.get("mechanism", PSSMechanism.family)
+    if family != PSSMechanism.family:
+        raise ValueError(f"geometry_from_dict reads a 6-PSS file, this one is {family!r}; use load_mechanism")
     units = d.get("units", "mm")
     if units != "mm":
         raise ValueError(f"geometry lengths must be in mm, the file says units={units!r}")
@@ -178,30 +269,8 @@ def geometry_from_dict(d: dict[str, Any]) -> Geometry:
         p = np.asarray(d["params"], dtype=np.float64)
         if p.shape != (N_PARAMS,):
             raise ValueError(f"geometry 'params' must hold 36 numbers, got shape {p.shape}")
-        return Geometry(p[:18].reshape(6, 3), p[18:].reshape(6, 3), v0)
+        return PSSMechanism(p[:18].reshape(6, 3), p[18:].reshape(6, 3), v0)
     missing = [k for k in ("upper", "lower") if k not in d]
     if missing:
         raise ValueError(f"geometry is missing {missing}: give 'upper' and 'lower' (6x3, mm) or 'params' (36)")
-    return Geometry(d["upper"], d["lower"], v0)
-
-
-def load_geometry(source: str | os.PathLike[str]) -> Geometry:
-    """A preset name (``nominal``, ``actual``) or a JSON/TOML file written by
-    :func:`save_geometry` (or by hand, see :func:`geometry_from_dict`)."""
-    s = os.fspath(source)
-    if s in PRESETS:
-        return preset_geometry(s)
-    if not os.path.exists(s):
-        raise FileNotFoundError(f"geometry {s!r} is neither a preset {PRESETS} nor an existing file")
-    if s.endswith(".toml"):
-        with open(s, "rb") as f:
-            return geometry_from_dict(tomllib.load(f))
-    with open(s) as f:
-        return geometry_from_dict(json.load(f))
-
-
-def save_geometry(geometry: Geometry, path: str | os.PathLike[str]) -> None:
-    """Write a geometry as JSON (full float64 precision)."""
-    with open(path, "w") as f:
-        json.dump(geometry.to_dict(), f, indent=2)
-        f.write("\n")
+    return PSSMechanism(d["upper"], d["lower"], v0)

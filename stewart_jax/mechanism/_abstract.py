@@ -1,0 +1,110 @@
+"""The mechanism abstraction every family implements, and the solution records it returns.
+
+A mechanism is six actuators between a fixed frame B and a moving frame A. A pose
+``P = [dx, dy, dz, φ, θ, ψ]`` (mm, rad; ``T = Rz(ψ)·Ry(θ)·Rx(φ)``) places A in B; each actuator
+then has a *reading* ``q_i`` (mm: a slider stroke, a strut's change of length). What differs
+between families is only the leg: how a reading follows from the pose and which geometric
+parameters the calibration identifies. Everything above this layer — forward kinematics,
+residuals, simulation, identifiability, the study, the discrepancy workflow, the CLI — is written
+against :class:`AbstractMechanism`.
+
+A family implements ``params``, ``with_params``, ``solve_inverse_kinematics``, ``to_dict`` and
+``from_dict``; the pose Jacobian and the parameter Jacobian have automatic-differentiation
+defaults that a family may override with closed forms. Register it with
+:func:`~stewart_jax.mechanism.register_family` so geometry files naming it load.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any, ClassVar, NamedTuple
+
+import equinox as eqx
+import jax
+from jaxtyping import Array, Bool, Float
+
+
+class IKSolution(NamedTuple):
+    """Inverse kinematics of poses of batch shape ``...``.
+
+    - ``strokes``: ``Float[Array, "... 6"]``, actuator readings q (mm). Where a leg is
+      unreachable the value is finite but meaningless.
+    - ``margin``: ``Float[Array, "... 6"]``, per leg a number that is ≥ 0 exactly when the leg can
+      be assembled (mm², family-specific; for the 6-PSS the square-root argument of eq. 4).
+    - ``reachable``: ``Bool[Array, "..."]``, every leg's margin is ≥ 0.
+    """
+
+    strokes: Float[Array, "... 6"]
+    margin: Float[Array, "... 6"]
+    reachable: Bool[Array, "..."]
+
+
+class AbstractMechanism(eqx.Module):
+    """A six-actuator parallel mechanism: a pytree of its geometry (mm).
+
+    Every family has the field ``v0`` (A's origin in B at the zero pose, mm). Class
+    attributes: ``family`` (the geometry file's ``"mechanism"`` value, e.g. ``"6-PSS"``)
+    and ``param_names`` (one label per calibration parameter, in :attr:`params` order).
+    Batch a mechanism with ``jax.vmap`` over a leading axis of every leaf.
+    """
+
+    family: ClassVar[str]
+    v0: eqx.AbstractVar[Float[Array, "3"]]
+    """Position of A's origin (the point whose pose is commanded) in B at the zero pose (mm)."""
+
+    @property
+    @abc.abstractmethod
+    def params(self) -> Float[Array, " n"]:
+        """The calibration parameters as one vector (mm)."""
+
+    @abc.abstractmethod
+    def with_params(self, params: Float[Array, " n"]) -> AbstractMechanism:
+        """The same mechanism with :attr:`params` replaced; traceable (vmap it over ``params``)."""
+
+    @abc.abstractmethod
+    def solve_inverse_kinematics(self, poses: Float[Array, "... 6"]) -> IKSolution:
+        """Readings and reachability of poses of any batch shape; pure and jittable."""
+
+    @abc.abstractmethod
+    def to_dict(self) -> dict[str, Any]:
+        """The geometry file's content (JSON-ready; lengths in mm), ``"mechanism"`` included."""
+
+    @classmethod
+    @abc.abstractmethod
+    def from_dict(cls, d: dict[str, Any]) -> AbstractMechanism:
+        """Inverse of :meth:`to_dict`, validating every field with a message naming it."""
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        """A label per calibration parameter (default ``p0, p1, …``)."""
+        return tuple(f"p{i}" for i in range(self.params.shape[-1]))
+
+    @property
+    def n_params(self) -> int:
+        return int(self.params.shape[-1])
+
+    def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
+        """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm)."""
+        raise NotImplementedError(f"{type(self).__name__} does not expose its moving joints")
+
+    def ik_and_jacobian(
+        self, poses: Float[Array, "... 6"]
+    ) -> tuple[Float[Array, "... 6"], Float[Array, "... 6"], Float[Array, "... 6 6"]]:
+        """Readings, margins and the pose Jacobian ``∂q_i/∂P_k`` (default: forward-mode AD)."""
+        flat = poses.reshape(-1, 6)
+
+        def one(p):
+            return self.solve_inverse_kinematics(p).strokes
+
+        sol = self.solve_inverse_kinematics(poses)
+        jac = jax.vmap(jax.jacfwd(one))(flat).reshape(*poses.shape[:-1], 6, 6)
+        return sol.strokes, sol.margin, jac
+
+    def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
+        """``∂q/∂u`` at :attr:`params` for the stacked readings of ``poses`` (row ``6j + i``
+        is leg ``i`` at pose ``j``), forward-mode AD through :meth:`with_params`."""
+
+        def readings(u):
+            return self.with_params(u).solve_inverse_kinematics(poses).strokes.reshape(-1)
+
+        return jax.jacfwd(readings)(self.params)

@@ -1,0 +1,116 @@
+"""Mechanism families and named presets, and the geometry files that name them.
+
+A geometry file (JSON or TOML, lengths in mm) names its family with the key ``"mechanism"``; a
+file without it is the 6-PSS of Wang et al. (2018), so older files keep loading. A family is
+registered once, by decorating its class with :func:`register_family`; a preset (a named
+geometry, e.g. ``"nominal"``) by decorating a zero-argument factory with :func:`register_preset`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import tomllib
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from ._abstract import AbstractMechanism
+
+DEFAULT_FAMILY = "6-PSS"
+
+_FAMILIES: dict[str, type[AbstractMechanism]] = {}
+_PRESETS: dict[str, Callable[[], AbstractMechanism]] = {}
+
+M = TypeVar("M", bound=type[AbstractMechanism])
+
+
+def register_family(cls: M) -> M:
+    """Class decorator: geometry files with ``"mechanism": cls.family`` load as ``cls``."""
+    name = getattr(cls, "family", None)
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"{cls.__name__} needs a class attribute `family` (the geometry file's name)")
+    if name in _FAMILIES and _FAMILIES[name] is not cls:
+        raise ValueError(f"mechanism family {name!r} is already registered by {_FAMILIES[name].__name__}")
+    _FAMILIES[name] = cls
+    return cls
+
+
+def register_preset(name: str) -> Callable[[Callable[[], AbstractMechanism]], Callable[[], AbstractMechanism]]:
+    """Decorator: ``factory()`` is the geometry named ``name`` (``--geometry NAME`` in the CLI)."""
+
+    def deco(factory: Callable[[], AbstractMechanism]) -> Callable[[], AbstractMechanism]:
+        if name in _PRESETS and _PRESETS[name] is not factory:
+            raise ValueError(f"preset {name!r} is already registered")
+        _PRESETS[name] = factory
+        return factory
+
+    return deco
+
+
+def families() -> tuple[str, ...]:
+    """The registered family names (geometry files' ``"mechanism"`` values)."""
+    return tuple(_FAMILIES)
+
+
+def presets() -> tuple[str, ...]:
+    """The registered preset names."""
+    return tuple(_PRESETS)
+
+
+def family(name: str) -> type[AbstractMechanism]:
+    """The class of a registered family."""
+    try:
+        return _FAMILIES[name]
+    except KeyError:
+        raise ValueError(f"unknown mechanism family {name!r}; known: {families()}") from None
+
+
+def preset(name: str) -> AbstractMechanism:
+    """The geometry of a registered preset."""
+    try:
+        factory = _PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown geometry preset {name!r}; choose one of {presets()} or give a file") from None
+    return factory()
+
+
+def mechanism_from_dict(d: dict[str, Any]) -> AbstractMechanism:
+    """A geometry file's content → the mechanism of the family it names (default 6-PSS)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"a geometry must be a JSON/TOML object (mapping), got {type(d).__name__}")
+    return family(d.get("mechanism", DEFAULT_FAMILY)).from_dict(d)
+
+
+def load_mechanism(source: str | os.PathLike[str]) -> AbstractMechanism:
+    """A preset name or a JSON/TOML geometry file (written by :func:`save_mechanism` or by hand)."""
+    s = os.fspath(source)
+    if s in _PRESETS:
+        return preset(s)
+    if not os.path.exists(s):
+        raise FileNotFoundError(f"geometry {s!r} is neither a preset {presets()} nor an existing file")
+    try:
+        if s.endswith(".toml"):
+            with open(s, "rb") as f:
+                d = tomllib.load(f)
+        else:
+            with open(s) as f:
+                d = json.load(f)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
+        raise ValueError(f"geometry file {s!r} is not valid {'TOML' if s.endswith('.toml') else 'JSON'}: {e}") from None
+    return mechanism_from_dict(d)
+
+
+def save_mechanism(mechanism: AbstractMechanism, path: str | os.PathLike[str]) -> None:
+    """Write a geometry file as JSON (full float64 precision), atomically."""
+    text = json.dumps(mechanism.to_dict(), indent=2) + "\n"
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".geometry-", suffix=".json")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

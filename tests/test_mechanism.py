@@ -1,0 +1,113 @@
+"""The mechanism abstraction, checked for every registered family through its presets.
+
+A new family registered with a preset is tested here without editing this file.
+"""
+
+import json
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import stewart_jax as sj
+from stewart_jax.mechanism import AbstractMechanism, families, preset, presets
+
+
+def travel(seed: int, n: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.concatenate([rng.uniform(-1, 1, (n, 3)), np.deg2rad(rng.uniform(-1, 1, (n, 3)))], axis=1)
+
+
+PRESETS = presets()
+
+
+def test_every_family_has_a_preset():
+    assert {preset(name).family for name in PRESETS} == set(families())
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_params_round_trip_and_file_round_trip(name, tmp_path):
+    m = preset(name)
+    assert isinstance(m, AbstractMechanism)
+    u = np.asarray(m.params)
+    assert u.shape == (m.n_params,) and len(m.param_names) == m.n_params
+    np.testing.assert_array_equal(m.with_params(jnp.asarray(u)).params, u)
+    path = tmp_path / "g.json"
+    sj.save_mechanism(m, path)
+    assert json.loads(path.read_text())["mechanism"] == m.family
+    back = sj.load_mechanism(path)
+    assert type(back) is type(m)
+    np.testing.assert_array_equal(back.params, u)
+    np.testing.assert_array_equal(back.v0, m.v0)
+    assert [p.name for p in tmp_path.iterdir()] == ["g.json"]  # the atomic write left no temporary
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_pose_jacobian_matches_autodiff_default(name):
+    m = preset(name)
+    poses = jnp.asarray(travel(1, 5))
+    _, _, jac = m.ik_and_jacobian(poses)
+    _, _, ad = AbstractMechanism.ik_and_jacobian(m, poses)  # the abstraction's forward-mode default
+    np.testing.assert_allclose(jac, ad, rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_parameter_jacobian_matches_central_differences(name):
+    m = preset(name)
+    poses = jnp.asarray(travel(2, 3))
+    jac = np.asarray(m.parameter_jacobian(poses))
+    u, h = np.asarray(m.params), 1e-4
+    fd = np.stack([
+        (np.asarray(m.with_params(jnp.asarray(u + h * e)).solve_inverse_kinematics(poses).strokes)
+         - np.asarray(m.with_params(jnp.asarray(u - h * e)).solve_inverse_kinematics(poses).strokes)).reshape(-1)
+        / (2 * h)
+        for e in np.eye(len(u))
+    ], axis=1)
+    # central differences of a smooth ~200 mm-scale function: truncation ~h² and rounding
+    # ~1e-13/h; 1e-8 is above both and far below any real Jacobian entry
+    np.testing.assert_allclose(jac, fd, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_forward_kinematics_inverts_inverse_kinematics(name):
+    m = preset(name)
+    poses = travel(3, 16)
+    fk = sj.forward_kinematics(m, sj.inverse_kinematics(m, poses))
+    assert bool(np.all(fk.converged))
+    np.testing.assert_allclose(fk.poses[:, :3], poses[:, :3], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(fk.poses[:, 3:], poses[:, 3:], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_vmap_over_mechanisms_matches_a_loop(name):
+    m = preset(name)
+    rng = np.random.default_rng(4)
+    us = np.asarray(m.params) + rng.normal(0, 0.1, (4, m.n_params))
+    poses = jnp.asarray(travel(5, 6))
+    batched = jax.vmap(lambda u: m.with_params(u).solve_inverse_kinematics(poses).strokes)(jnp.asarray(us))
+    for u, b in zip(us, batched, strict=True):
+        np.testing.assert_array_equal(m.with_params(jnp.asarray(u)).solve_inverse_kinematics(poses).strokes, b)
+
+
+def test_file_without_family_key_is_the_paper_6pss(tmp_path):
+    g = sj.nominal_geometry()
+    d = g.to_dict()
+    del d["mechanism"]
+    (tmp_path / "old.json").write_text(json.dumps(d))
+    back = sj.load_mechanism(tmp_path / "old.json")
+    assert isinstance(back, sj.PSSMechanism)
+    np.testing.assert_array_equal(back.params, g.params)
+
+
+def test_bad_geometry_files_name_the_problem(tmp_path):
+    (tmp_path / "fam.json").write_text(json.dumps({"mechanism": "7-XYZ"}))
+    with pytest.raises(ValueError, match="unknown mechanism family '7-XYZ'"):
+        sj.load_mechanism(tmp_path / "fam.json")
+    (tmp_path / "broken.json").write_text("{ not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        sj.load_mechanism(tmp_path / "broken.json")
+    with pytest.raises(FileNotFoundError, match="neither a preset"):
+        sj.load_mechanism(tmp_path / "missing.json")
+    with pytest.raises(ValueError, match="unknown geometry preset"):
+        preset("true")
