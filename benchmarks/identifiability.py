@@ -1,15 +1,17 @@
-"""Optimal pose plans and predicted vs Monte Carlo calibration uncertainty (issue 7).
+"""Optimal pose plans and predicted vs Monte Carlo calibration uncertainty.
 
     python benchmarks/identifiability.py            # 200 seeds, m = 8 and m = 120, 2000 candidates
     python benchmarks/identifiability.py --quick    # 16 seeds, m = 8, 300 candidates (a smoke run)
 
-(a) Pose plans at equal m: the paper's plans (m = 8: 8 random poses in the travel, a new draw
-per seed, seed 000 §3; m = 120: the §4 sampling plan) against plans chosen by
-``plan_poses_optimal`` (O1 = D-optimal and O3 = E-optimal, greedy + exchange) from candidates
-drawn uniformly in the travel (±1 mm, ±1°), planned on the nominal geometry. For each plan,
-the control error at 42 fixed validation poses: PREDICTED (``identifiability_report`` →
-``control_error_sensitivity``, linearised at the true geometry) and MEASURED (LM calibrations
-over the seeds, SPEC §3 noise σ = 0.1 µm / 0.1″, Ω = nominal ± 10 mm). Per component: median
+(a) Pose plans at equal m: the paper's plans (Wang H., Cao X. et al., "Improved cuckoo
+calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
+Engineering 47(5), 2018 — m = 8: 8 random poses in the travel, a new draw per seed, its §3;
+m = 120: the sampling plan of its §4) against plans chosen by ``plan_poses_optimal`` (O1 =
+D-optimal and O3 = E-optimal, greedy + exchange) from candidates drawn uniformly in the travel
+(±1 mm, ±1°), planned on the nominal geometry. For each plan, the control error at 42 fixed
+validation poses: PREDICTED (``identifiability_report`` → ``control_error_sensitivity``,
+linearised at the true geometry) and MEASURED (LM calibrations over the seeds, noise
+σ = 0.1 µm / 0.1″ as read in docs/conventions.md, Ω = nominal ± 10 mm). Per component: median
 and 90th percentile over seeds of the max |error| over the 42 poses (predicted: over Gaussian
 draws of the parameter error from the predicted covariance, propagated linearly), and the RMS
 over seeds and poses.
@@ -133,7 +135,7 @@ def main(argv=None) -> int:
             plans["paper8 (8 random poses, new draw per seed)"] = {"m": 8, "targets": per_seed, "fixed": False}
             plans["random 8 (one fixed paper-style draw)"] = {"m": 8, "targets": per_seed[0], "fixed": True}
         else:
-            plans["plan120 (seed 000 §4)"] = {"m": 120, "targets": np.asarray(sj.calibration.sampling_plan_120()), "fixed": True}
+            plans["plan120 (Wang et al. §4)"] = {"m": 120, "targets": np.asarray(sj.calibration.sampling_plan_120()), "fixed": True}
         for criterion in ("O1", "O3"):
             t0 = time.perf_counter()
             plan = sj.calibration.plan_poses_optimal(nominal, candidates, m, criterion)

@@ -1,4 +1,4 @@
-"""Batched IK / FK throughput on this machine's CPU (float64), against NumPy (issue 2).
+"""Batched IK / FK throughput on this machine's CPU (float64), against NumPy.
 
 Run from the repository root:
 
@@ -110,7 +110,7 @@ def numpy_ik(upper, lower, v0, poses):
 
 
 def numpy_ik_jacobian(upper, lower, v0, poses):
-    """Strokes (N, 6) and the analytic Jacobian ∂q/∂P (N, 6, 6) (see _kinematics_batched)."""
+    """Strokes (N, 6) and the analytic Jacobian ∂q/∂P (N, 6, 6) (see stewart_jax/mechanism/_batched.py)."""
     rot = numpy_rotation(poses[:, 3:])
     w = rot @ upper.T  # (N, 3, 6)
     delta = w - upper.T + poses[:, :3, None]
@@ -520,7 +520,7 @@ def main():
            if k.startswith("MALLOC_") or k == "XLA_FLAGS"]  # fmt: skip
     cmd = " ".join([*env, shlex.join(getattr(sys, "orig_argv", [sys.executable, *sys.argv]))])
     result = {
-        "benchmark": "stewart_jax kinematics throughput (issue 2)",
+        "benchmark": "stewart_jax kinematics throughput",
         "command": cmd,
         "date_utc": started.isoformat(timespec="seconds"),
         "mode": "quick" if args.quick else "full",

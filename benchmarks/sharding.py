@@ -4,10 +4,10 @@
 
 Each device count runs in its own process (JAX fixes the device count at start-up), with
 ``--xla_force_host_platform_device_count=N`` on the CPU: N host devices share this machine's
-cores. Per device count: the seed-000 study (8 poses) with LM (many trials: it is fast) and
-VSA-SMCS, run once to compile and then timed twice (the best of the two is reported: the
-machine may be shared); the per-trial numbers are compared with the single-device run. The
-1-minute load average is recorded before each child.
+cores. Per device count: the simulation study of Wang et al. (2018) (8 poses) with LM (many
+trials: it is fast) and VSA-SMCS, run once to compile and then timed twice (the best of the two
+is reported: the machine may be shared); the per-trial numbers are compared with the
+single-device run. The 1-minute load average is recorded before each child.
 """
 
 from __future__ import annotations

@@ -12,12 +12,13 @@
 # ---
 
 # %% [markdown]
-# # 1. The seed-000 simulation study (Wang et al. 2018, §3, Figs. 2–3, Table 2)
+# # 1. The simulation study of Wang et al. (2018), §3, Figs. 2–3, Table 2
 #
 # The 6-PSS secondary-mirror mechanism, 36 parameters (the 12 joint centres). Each trial draws
 # 8 random target poses in the ±1 mm / ±1° travel, commands them with the **nominal** model,
 # moves the **true** mechanism (Table 1's "actual" values), measures the reached pose with
-# σ = 0.1 µm / 0.1″ noise (SPEC §3), calibrates from the nominal parameters inside
+# σ = 0.1 µm / 0.1″ noise (our reading of the paper's "±0.1 µm, ±0.1°", see
+# `docs/conventions.md`), calibrates from the nominal parameters inside
 # Ω = nominal ± 10 mm, and judges the result by the *control* error: command each pose with
 # the calibrated model and compare where the true mechanism goes with the target.
 #
@@ -122,7 +123,7 @@ for label, e in per_pose.items():
 # ## Table 2: ours (median, whisker to the 90th percentile, dots = trials) vs the paper
 #
 # Our "Before calibration" row is smaller than the paper's in dx, dz and θ: with the rod
-# lengths defined from the zero pose (SPEC §2) both mechanisms sit exactly at the zero pose at
+# lengths defined from the zero pose (`docs/conventions.md`) both mechanisms sit exactly at the zero pose at
 # zero stroke, so the error grows from 0 at the centre (see README, "Results").
 
 # %%

@@ -12,7 +12,7 @@
 # ---
 
 # %% [markdown]
-# # 2. The 120-pose sampling plan and an experiment-like calibration (seed 000 §4, Table 4)
+# # 2. The 120-pose sampling plan and an experiment-like calibration (Wang et al. 2018, §4, Table 4)
 #
 # The paper's experiment: a laser tracker (3 µm per coordinate) follows 3 target balls on the
 # moving platform, the pose is the rigid fit of the three points, and the mechanism is driven

@@ -17,9 +17,9 @@
 # Point the notebook at your files with environment variables (or edit the cell below):
 #
 # - `STEWART_JAX_GEOMETRY`: the nominal geometry — a preset (`nominal`, `actual`) or a
-#   JSON/TOML file of the 12 joint centres and `v0` in mm (`stewart_jax.save_geometry` writes one);
-# - `STEWART_JAX_CSV`: the measured data, SPEC §6 columns: `q1..q6` (mm), `x, y, z` (mm),
-#   `rx, ry, rz` (degrees), optional `dir1..dir6`, `temperature` (°C), `time` (s);
+#   JSON/TOML file of the 12 joint centres and `v0` in mm (`stewart_jax.save_mechanism` writes one);
+# - `STEWART_JAX_CSV`: the measured data, columns as in `docs/conventions.md`: `q1..q6` (mm),
+#   `x, y, z` (mm), `rx, ry, rz` (degrees), optional `dir1..dir6`, `temperature` (°C), `time` (s);
 # - `STEWART_JAX_SIGMA_UM`, `STEWART_JAX_SIGMA_ARCSEC`: the pose-measurement noise (σ);
 # - `STEWART_JAX_OUT`: where to write the calibrated geometry (default: a temporary directory).
 #
@@ -80,7 +80,7 @@ print("rod lengths (mm):", np.round(np.asarray(sj.mechanism.rod_lengths(nominal)
 # %% [markdown]
 # ## Calibrate (Levenberg–Marquardt from the nominal parameters, Ω = nominal ± 10 mm)
 #
-# On the seed-000 problem LM reaches the noise floor fastest (README, "Results"); for a
+# On the simulation problem of Wang et al. (2018) LM reaches the noise floor fastest (README, "Results"); for a
 # mechanism far from its nominal geometry use `"vsa-smcs+lm"` (a global search, then LM).
 
 # %%
@@ -120,8 +120,9 @@ plotting.show(fig, figure_path("05_parameter_std.png"))
 # %% [markdown]
 # ## Diagnose: is anything missing from the 36-parameter model?
 #
-# The SPEC §7 workflow (30 % of the poses held out). "none" means the held-out residuals are
-# explained by the noise you gave; otherwise it names the effect to add.
+# The model-discrepancy workflow of `docs/discrepancy.md` (30 % of the poses held out).
+# "none" means the held-out residuals are explained by the noise you gave; otherwise it names
+# the effect to add.
 
 # %%
 model = dc.pss_model(nominal, sigma_um=SIGMA_UM, sigma_arcsec=SIGMA_ARCSEC)
