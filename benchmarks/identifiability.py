@@ -53,7 +53,7 @@ def _simulate(keys, targets, nominal, actual, sigma_um, sigma_arcsec):
 
 
 @jax.jit
-def _validation_errors(params, actual, validation):
+def _validation_errors(params, nominal, actual, validation):
     """``(seeds, 42, 6)`` control errors (mm, rad) of each calibrated parameter vector."""
     ce = jax.vmap(lambda p: sj.control_error(nominal.with_params(p), actual, validation))(params)
     return ce.errors, jnp.all(ce.converged)
@@ -66,7 +66,7 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
     if not bool(sim_ok):
         raise RuntimeError("forward kinematics of the true mechanism failed at a calibration pose")
     res = sj.calibration.calibrate_batch(problems, "lm", noise_keys)
-    errors, fk_ok = _validation_errors(res.params, actual, validation)
+    errors, fk_ok = _validation_errors(res.params, nominal, actual, validation)
     errors = sj.error_in_report_units(errors)
     status, counts = np.unique(np.asarray(res.status), return_counts=True)
     return {
