@@ -69,6 +69,7 @@ from jax.sharding import (  # noqa: E402
 sys.path.insert(0, str(REPO))
 import stewart_jax as sj  # noqa: E402
 import stewart_jax.mechanism as kb  # noqa: E402
+
 # The layout ablation and the FK step/chunk sweep below time internal variants of the fast paths;
 # they are the one place a benchmark reaches private functions.
 from stewart_jax.mechanism._batched import (  # noqa: E402
