@@ -5,10 +5,11 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.stewart-jax-installed
 
-# Demo size: trials of the seed-000 study per method (a few minutes on 2 cores).
+# Demo size: trials of the Table 2 study (Wang et al. 2018) per method (a few minutes on 2 cores).
+# The methods: every registered calibration method (read from the registry when the demo runs).
 DEMO_TRIALS ?= 10
 DEMO_BUDGET ?= 50000
-DEMO_METHODS ?= lm,lm-jaxopt,cs,smcs,vsa-smcs,vsa-smcs+lm,nelder-mead
+DEMO_METHODS ?= $(shell $(BIN)/python -c "from stewart_jax.calibration import METHODS; print(','.join(METHODS))")
 
 .PHONY: venv demo test lint bench bench-deps clean
 

@@ -33,7 +33,7 @@ import numpy as np  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
-from stewart_jax.discrepancy._workflow import diagnose_many, select_effects, split_rows  # noqa: E402
+from stewart_jax.discrepancy import diagnose_many, select_effects, split_rows  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LABELS = ("none",) + dc.EFFECT_NAMES
@@ -41,7 +41,7 @@ LABELS = ("none",) + dc.EFFECT_NAMES
 
 def _control_rms(truth, fitted, rng):
     """RMS control error (µm over dx,dy,dz; ″ over φ,θ,ψ) at 42 random validation poses."""
-    half = np.array([sj.TRAVEL_MM] * 3 + [sj.TRAVEL_RAD] * 3)
+    half = np.array([sj.calibration.TRAVEL_MM] * 3 + [sj.calibration.TRAVEL_RAD] * 3)
     targets = rng.uniform(-half, half, (42, 6))
     cond = dc.random_conditions(rng, 42)
     data = sj.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)

@@ -68,7 +68,7 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
     res = sj.calibration.calibrate_batch(problems, "lm", noise_keys)
     errors, fk_ok = _validation_errors(res.params, nominal, actual, validation)
     errors = sj.error_in_report_units(errors)
-    status, counts = np.unique(np.asarray(res.status), return_counts=True)
+    status, counts = np.unique(sj.optimise.status_code(res.status), return_counts=True)
     return {
         "errors": errors,
         "fk_ok": bool(fk_ok),

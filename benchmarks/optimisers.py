@@ -1,4 +1,4 @@
-"""Optimiser speed, side by side in one run, on the same objective (seed 000 eq. 9, 8 poses).
+"""Optimiser speed, side by side in one run, on the same objective (Wang et al. 2018, eq. 9, 8 poses).
 
     python benchmarks/optimisers.py [--quick]
 
@@ -6,7 +6,7 @@
    - ours: the jitted, vmapped population step inside ``lax.scan`` (``calibrate`` with
      method ``cs``; and ``vsa-smcs``), one trial, and 100 trials batched with vmap;
    - mealpy's ``OriginalCSA`` (pop 37), objective = the NumPy S of one vector;
-   - a NumPy-vectorised CS (the same algorithm as ``stewart_jax._solver.cuckoo``: the population
+   - a NumPy-vectorised CS (the same algorithm as ``stewart_jax.optimise.CuckooSearch``: the population
      evaluated in one vectorised call per phase).
 2. Time per LM calibration: our optimistix LM vmapped over 1000 trials, against SciPy's
    ``least_squares(method="lm")`` run sequentially (default 2-point finite-difference Jacobian,
@@ -32,8 +32,9 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
+# ahead-of-time compilation (``.lower().compile()``) needs the jitted runners themselves
 from stewart_jax.calibration._methods import _run_batch, _run_one, make_solver  # noqa: E402
-from stewart_jax.study._study import simulate_trials, trial_keys  # noqa: E402
+from stewart_jax.study import simulate_trials, trial_keys  # noqa: E402
 
 
 def numpy_strokes(U, upper_idx, poses, v0):
@@ -63,12 +64,12 @@ def numpy_cost(U, q, poses, v0):
 
 
 def mantegna(rng, shape, beta=1.5):
-    sigma = float(sj.mantegna_sigma(beta))
+    sigma = float(sj.optimise.mantegna_sigma(beta))
     return rng.normal(0, sigma, shape) / np.abs(rng.normal(0, 1, shape)) ** (1 / beta)
 
 
 def numpy_cuckoo(cost, lo, hi, n_nests, generations, rng, alpha=0.01, pa=0.25):
-    """Vectorised CS, the algorithm of ``stewart_jax._solver.cuckoo`` in NumPy."""
+    """Vectorised CS, the algorithm of ``stewart_jax.optimise.CuckooSearch`` in NumPy."""
     x = rng.uniform(lo, hi, (n_nests, lo.size))
     f = cost(x)
     n_evals = n_nests
@@ -109,7 +110,7 @@ def main(argv=None) -> int:
     keys = trial_keys(0, max(n_lm, n_batch))
     problems, *_ = simulate_trials(keys, nominal, actual, "paper8")
     one = jax.tree.map(lambda x: x[0], problems)
-    q, poses, v0 = (np.asarray(x) for x in (one.data.strokes, one.data.poses, one.v0))
+    q, poses, v0 = (np.asarray(x) for x in (one.data.strokes, one.data.poses, one.mechanism.v0))
     lo, hi = np.asarray(one.lower), np.asarray(one.upper)
     rows = []
 
@@ -122,14 +123,14 @@ def main(argv=None) -> int:
     for method in ("cs", "vsa-smcs"):
         # compile ahead of time (``lower().compile()``), then time the compiled call alone
         solver = make_solver(method, None, n_nests=37)  # mealpy and the NumPy CS use 37 nests too
-        call = (solver, one, jax.random.key(1), budget)
+        call = ("box", solver, one, jax.random.key(1), budget)
         t0 = time.perf_counter()
         compiled = _run_one.lower(*call).compile()
         compile_s = time.perf_counter() - t0
         sec, res = timed(lambda c=compiled, a=call: c(*a))
         add(f"stewart_jax {method} (1 trial, pop {solver.n_nests})", int(res.n_evaluations), sec, compile_s)
         batch = jax.tree.map(lambda x: x[:n_batch], problems)
-        call = (solver, batch, jax.random.split(jax.random.key(2), n_batch), budget)
+        call = ("box", solver, batch, jax.random.split(jax.random.key(2), n_batch), budget)
         t0 = time.perf_counter()
         compiled = _run_batch.lower(*call).compile()
         compile_s = time.perf_counter() - t0
@@ -170,7 +171,9 @@ def main(argv=None) -> int:
     lm_rows = []
     batch = jax.tree.map(lambda x: x[:n_lm], problems)
     t0 = time.perf_counter()
-    f = jax.jit(jax.vmap(sj.LevenbergMarquardt().run)).lower(batch).compile()
+    lm = sj.optimise.LevenbergMarquardt()
+    f = jax.jit(jax.vmap(lambda p: lm.run(lambda u, pp: pp.residuals(u), p.initial, p, lambda u, pp: pp.cost(u))))
+    f = f.lower(batch).compile()
     compile_s = time.perf_counter() - t0
     sec, res = timed(lambda: f(batch))
     lm_rows.append({"method": f"stewart_jax LM, vmap over {n_lm} trials", "trials": n_lm, "seconds": sec,

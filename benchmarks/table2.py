@@ -1,9 +1,9 @@
-"""Seed 000, Table 2 as a Monte Carlo, and the optimisers' convergence.
+"""Wang et al. (2018), Table 2 as a Monte Carlo, and the optimisers' convergence.
 
     python benchmarks/table2.py            # ≥100 seeds, 8-pose and 120-pose plans
     python benchmarks/table2.py --quick    # a few seeds, small budget (a smoke run)
 
-For each plan: the SPEC §3 protocol (σ = 0.1 µm and 0.1″, Ω = nominal ± 10 mm), rows before
+For each plan: the paper's protocol (σ = 0.1 µm and 0.1″, Ω = nominal ± 10 mm), rows before
 calibration, SMCS, VSA-SMCS (same evaluation budget), LM, VSA-SMCS+LM (and CS); columns the
 max control error per component, median and 90th percentile over seeds, at the calibration
 poses and at 42 fresh validation poses; the paper's row beside ours. Then the convergence
@@ -25,7 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import RESULTS, write_results  # noqa: E402
 
 import stewart_jax  # noqa: E402,F401
-from stewart_jax.study._study import METHOD_LABELS, format_study_table, run_study  # noqa: E402
+from stewart_jax.study import METHOD_LABELS, format_study_table, run_study  # noqa: E402
 
 CONVERGENCE_METHODS = ("cs", "smcs", "vsa-smcs")
 

@@ -87,7 +87,7 @@ print("rod lengths (mm):", np.round(np.asarray(sj.mechanism.rod_lengths(nominal)
 problem = sj.calibration_problem(data, nominal, half_width=10.0)
 result = jax.block_until_ready(sj.calibrate(problem, "lm"))
 calibrated = nominal.with_params(result.params)
-status = sj.optimise.STATUS_NAMES[int(result.status)]
+status = sj.optimise.status_name(result.status)
 print(f"status {status}; S = {float(result.cost):.4g} mm² "
       f"(RMS stroke residual {np.sqrt(float(result.cost) / (6 * data.n_poses)) * 1e3:.3g} µm) "
       f"after {int(result.n_evaluations)} LM steps")

@@ -46,7 +46,7 @@ def test_cost_vmaps_over_population(noise_free, nominal, actual):
 def test_lm_recovers_control_accuracy_without_noise(noise_free, nominal, actual):
     problem = sj.calibration_problem(noise_free.data, nominal)
     res = sj.calibrate(problem, "lm")
-    assert int(res.status) == 0
+    assert bool(res.status == sj.optimise.RESULTS.successful)
     assert float(res.cost) < 1e-20  # mm², i.e. residuals ~1e-11 mm: exact data, exact fit
     cal = nominal.with_params(res.params)
     # 36 parameters are not all identifiable from 8 poses, but the control error is: it must
@@ -72,7 +72,7 @@ def test_lm_reaches_noise_floor_on_paper_protocol(nominal, actual):
     scale = np.array([1e-4] * 3 + [0.1 * sj.ARCSEC] * 3)
     sigma_q2 = np.mean(np.sum((np.asarray(J) * scale) ** 2, axis=-1))
     expected = sigma_q2 * (48 - 36)
-    assert int(res.status) == 0
+    assert bool(res.status == sj.optimise.RESULTS.successful)
     assert float(res.cost) < 5 * expected  # chi-square with 12 dof: P(> 5·mean) < 1e-4
     assert float(res.cost) < 1e-5 * s0
 

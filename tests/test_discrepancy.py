@@ -4,7 +4,6 @@ One batch of hidden-effect data sets (every candidate and none; 40 random poses 
 every diagnose call shares one set of compiled kernels) is analysed once per session.
 """
 
-import argparse
 import json
 
 import jax.numpy as jnp
@@ -14,7 +13,6 @@ import scipy.stats
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc
-from stewart_jax.discrepancy import _workflow as wf
 
 N_RANDOM = 40
 MAGNITUDE = 5.0
@@ -53,7 +51,7 @@ def test_pss_strokes_matches_library_ik_and_leg_constraint():
     n = np.stack([np.cos(ang[:, 0]) * np.sin(ang[:, 1]), -np.sin(ang[:, 0]), np.cos(ang[:, 0]) * np.cos(ang[:, 1])], -1)
     dl = rng.uniform(-0.05, 0.05, (30, 6))
     q = np.asarray(dc.pss_strokes(up, lo, v0, jnp.asarray(n), jnp.asarray(dl), jnp.asarray(poses)))
-    a = np.asarray(sj.upper_joints_in_base(g, jnp.asarray(poses)))
+    a = np.asarray(sj.mechanism.upper_joints_in_base(g, jnp.asarray(poses)))
     leg = a - np.asarray(lo) - q[..., None] * n
     length = np.linalg.norm(np.asarray(up) + np.asarray(v0) - np.asarray(lo), axis=-1) + dl
     np.testing.assert_allclose(np.linalg.norm(leg, axis=-1), length, rtol=0, atol=1e-10)
@@ -94,9 +92,9 @@ def test_whitener_inverts_the_pose_noise_covariance(model):
 
 def test_distribution_tails_match_scipy():
     for x, k in ((3.0, 2), (250.0, 240), (1e-3, 6)):
-        assert wf.chi2_sf(x, k) == pytest.approx(scipy.stats.chi2.sf(x, k), rel=1e-9)
+        assert dc.chi2_sf(x, k) == pytest.approx(scipy.stats.chi2.sf(x, k), rel=1e-9)
     for x, d1, d2 in ((2.0, 6, 100), (0.5, 1, 10), (1.2, 300, 700)):
-        assert wf.f_sf(x, d1, d2) == pytest.approx(scipy.stats.f.sf(x, d1, d2), rel=1e-8)
+        assert dc.f_sf(x, d1, d2) == pytest.approx(scipy.stats.f.sf(x, d1, d2), rel=1e-8)
 
 
 def test_heldout_statistic_is_chi2_with_n_test_dof_under_a_linear_model():
@@ -110,7 +108,7 @@ def test_heldout_statistic_is_chi2_with_n_test_dof_under_a_linear_model():
     for _ in range(4000):
         e_tr, e_te = rng.standard_normal(n_tr), rng.standard_normal(n_te)
         u_hat = np.linalg.lstsq(a_tr, e_tr, rcond=None)[0]
-        stats.append(wf._heldout_chi2(e_te - a_te @ u_hat, a_tr, a_te))
+        stats.append(dc.heldout_chi2(e_te - a_te @ u_hat, a_tr, a_te))
     stats = np.asarray(stats)
     assert abs(stats.mean() - n_te) < 4 * np.sqrt(2 * n_te / len(stats))
     assert abs(stats.var() / (2 * n_te) - 1) < 0.1
@@ -256,10 +254,9 @@ def test_register_effect_validates():
 
 
 def _parser():
-    ap = argparse.ArgumentParser()
-    sub = ap.add_subparsers(dest="command", required=True)
-    dc.add_diagnose_parser(sub)
-    return ap
+    from stewart_jax._cli import build_parser  # the command line's parser (the `stewart-jax` entry point)
+
+    return build_parser()
 
 
 def test_cli_simulate_effect_then_diagnose(tmp_path):
@@ -280,3 +277,13 @@ def test_cli_simulate_effect_then_diagnose(tmp_path):
     np.testing.assert_allclose(res["augmented_model"]["effects"][0]["params"],
                                np.asarray(fm.thetas[0]) * 3600 / sj.UM, rtol=1e-12)
     assert np.all(np.isfinite(np.asarray(fm.commanded(data))))
+
+
+def test_import_does_not_load_the_cable_robot_or_matplotlib():
+    import subprocess
+    import sys
+
+    code = ("import sys, stewart_jax.discrepancy as dc; "
+            "print('stewart_jax.cable_robot' in sys.modules, 'matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "False"]

@@ -10,14 +10,15 @@ import numpy as np
 import pytest
 
 import stewart_jax  # noqa: F401
-from stewart_jax.discrepancy import diagnose, effects_for
-from stewart_jax.discrepancy._cable_robot import (
+from stewart_jax.discrepancy import (
     FAST_EFFECTS,
-    MODEL_NAME,
+    diagnose,
+    effects_for,
     fast_model,
     fast_responses,
     simulate_fast_measurement,
 )
+from stewart_jax.discrepancy import FAST_MODEL_NAME as MODEL_NAME
 
 SIGMA_UM = 10.0
 STRIDE = 2

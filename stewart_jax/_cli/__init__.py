@@ -10,7 +10,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-ALL_METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "nelder-mead")
+from ..calibration._methods import METHOD_REGISTRY
+
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -45,27 +46,22 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from ..calibration._csv import read_csv
     from ..calibration._problem import calibration_problem
     from ..mechanism._registry import load_mechanism, save_mechanism
-    from ..optimise._result import STATUS_NAMES
+    from ..optimise._result import status_name
 
     data = read_csv(args.file)
     nominal = load_mechanism(args.geometry)
     problem = calibration_problem(data, nominal, args.half_width)
     options = {}
     if args.max_evaluations is not None:
-        if args.method in ("lm", "lm-jaxopt"):
+        if METHOD_REGISTRY[args.method].kind == "least_squares":
             raise SystemExit("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
         options["max_evaluations"] = args.max_evaluations
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
     t0 = time.perf_counter()
-    if args.method == "lm" and "max_evaluations" not in options:
-        from ..optimise._levenberg_marquardt import LevenbergMarquardt
+    from ..calibration._methods import calibrate
 
-        result = jax.jit(LevenbergMarquardt(**options).run)(problem)
-    else:
-        from ..calibration._methods import calibrate
-
-        result = calibrate(problem, args.method, jax.random.key(args.seed), **options)
+    result = calibrate(problem, args.method, jax.random.key(args.seed), **options)
     result = jax.block_until_ready(result)
     seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
@@ -80,7 +76,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         "cost": float(result.cost),
         "n_evaluations": int(result.n_evaluations),
         "seconds": seconds,
-        "status": STATUS_NAMES[int(result.status)],
+        "status": status_name(result.status),
         "n_poses": m,
         "rms_residual_um": float(np.sqrt(float(result.cost) / (6 * m)) * 1e3),
         "in_box": bool(np.all((params >= np.asarray(problem.lower)) & (params <= np.asarray(problem.upper)))),
@@ -114,19 +110,20 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                                                      sigma_um=args.sigma_um), args.plot)
     if not args.json:
         print(json.dumps(out))
-    return 0 if int(result.status) != 2 else 1
+    return 0 if out["status"] != "nonfinite" else 1
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
     from ..study._study import format_study_table, run_study
 
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    unknown = sorted(set(methods) - set(ALL_METHODS))
+    unknown = sorted(set(methods) - set(METHOD_REGISTRY))
     if unknown:
-        raise SystemExit(f"unknown method(s) {unknown}; choose from {ALL_METHODS}")
+        raise SystemExit(f"unknown method(s) {unknown}; choose from {tuple(METHOD_REGISTRY)}")
     options = {}
     if args.max_evaluations is not None:
-        options = {m: {"max_evaluations": args.max_evaluations} for m in methods if not m.startswith("lm")}
+        options = {m: {"max_evaluations": args.max_evaluations} for m in methods
+                   if METHOD_REGISTRY[m].kind != "least_squares"}
     print(
         f"seed-000 simulation study: plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
         f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
@@ -179,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("calibrate", help="calibrate the 36 parameters from a measured CSV")
     p.add_argument("file", help="measured data CSV (SPEC §6)")
-    p.add_argument("--method", choices=ALL_METHODS, default="lm")
+    p.add_argument("--method", choices=tuple(METHOD_REGISTRY), default="lm")
     p.add_argument("--seed", type=int, default=0, help="PRNG seed of the stochastic methods")
     _noise_args(p)
     p.add_argument("--json", help="write the result as JSON")
@@ -192,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_calibrate)
 
     p = sub.add_parser("study", help="the seed-000 simulation study (Table 2) over many seeds")
-    p.add_argument("--methods", default="lm", help=f"comma-separated, from {ALL_METHODS}")
+    p.add_argument("--methods", default="lm", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
     p.add_argument("--trials", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--plan", choices=("paper8", "plan120"), default="paper8")

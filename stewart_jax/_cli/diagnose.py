@@ -8,13 +8,13 @@ import sys
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from ..mechanism._pss import load_geometry
+    from ..mechanism._registry import load_mechanism
     from ..calibration._csv import read_csv
     from ..discrepancy._pss import pss_model
     from ..discrepancy._workflow import diagnose
 
     data = read_csv(args.file)
-    model = pss_model(load_geometry(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
+    model = pss_model(load_mechanism(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     report = diagnose(
         data,

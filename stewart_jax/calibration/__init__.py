@@ -30,10 +30,15 @@ from ._identifiability import (
     stroke_noise_covariance as stroke_noise_covariance,
 )
 from ._methods import (
+    METHOD_LABELS as METHOD_LABELS,
+    METHOD_REGISTRY as METHOD_REGISTRY,
     METHODS as METHODS,
+    Method as Method,
     calibrate as calibrate,
     calibrate_batch as calibrate_batch,
     make_solver as make_solver,
+    method_label as method_label,
+    register_method as register_method,
 )
 from ._problem import (
     CalibrationData as CalibrationData,

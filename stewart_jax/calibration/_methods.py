@@ -1,4 +1,4 @@
-"""One entry point for every calibration optimiser of seed 000 §2 (and the baselines).
+"""One entry point for every calibration method, read from one registry.
 
 ``calibrate(problem, method, key, ...)`` runs one trial; ``calibrate_batch(problems, method,
 keys, ...)`` vmaps over independent trials (a :class:`CalibrationProblem` whose arrays have a
@@ -6,15 +6,10 @@ leading trial axis, and one PRNG key per trial) in a single compiled call. Both 
 with the method, its options and the budget static: repeated calls with the same settings
 and shapes reuse the compiled code.
 
-Methods (module: citation):
-
-- ``"lm"``: :mod:`.levenberg_marquardt` (optimistix), from the nominal parameters; the baseline.
-- ``"lm-jaxopt"``: :mod:`.jaxopt_lm`, the same from jaxopt, a cross-check.
-- ``"cs"``: :mod:`.cuckoo` (Yang & Deb 2009).
-- ``"smcs"``: :mod:`.smcs` (seed 000 §2.1; unbounded simplex steps).
-- ``"vsa-smcs"``: :mod:`.vsa_smcs` (seed 000 §2.2–2.3).
-- ``"vsa-smcs+lm"``: :mod:`.hybrid`.
-- ``"nelder-mead"``: :mod:`.simplex` (bounded Nelder–Mead from the nominal parameters).
+The registry :data:`METHOD_REGISTRY` (name → :class:`Method`) is the only list of methods: the
+CLI's ``--method`` choices, the study's labels, the tests and the Makefile's demo read it.
+Adding an optimiser is one module in :mod:`stewart_jax.optimise` and one
+:func:`register_method` call here.
 
 Budgets: ``max_evaluations`` (cost evaluations) for the metaheuristics and Nelder–Mead, so
 that methods compare at the same number of evaluations; ``max_steps`` (LM iterations, each one
@@ -23,71 +18,153 @@ residual vector and one Jacobian) for the LM methods. The hybrid takes both.
 
 from __future__ import annotations
 
-from typing import Any
+import dataclasses
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, Literal
 
 import equinox as eqx
 import jax
 from jaxtyping import PRNGKeyArray
 
-from ._problem import CalibrationProblem
-from ..optimise._driver import minimise
-from ..optimise._result import OptimiseResult
 from ..optimise._cuckoo import CuckooSearch
+from ..optimise._driver import minimise
 from ..optimise._hybrid import VSASMCSThenLM
 from ..optimise._jaxopt_lm import JaxoptLevenbergMarquardt
 from ..optimise._levenberg_marquardt import LevenbergMarquardt
+from ..optimise._result import OptimiseResult
 from ..optimise._simplex import NelderMead
 from ..optimise._smcs import SMCS
 from ..optimise._vsa_smcs import VSASMCS
+from ._problem import CalibrationProblem
 
-METHODS = ("lm", "lm-jaxopt", "cs", "smcs", "vsa-smcs", "vsa-smcs+lm", "nelder-mead")
-"""The method names :func:`calibrate` accepts."""
+Kind = Literal["least_squares", "box", "hybrid"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Method:
+    """A calibration method.
+
+    - ``name``: the CLI/JSON name (``"vsa-smcs"``).
+    - ``label``: the name in tables and figures (``"VSA-SMCS"``).
+    - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters.
+    - ``kind``: how it runs: ``"least_squares"`` (residual vector from the nominal parameters,
+      budget ``max_steps``), ``"box"`` (cost over Ω within ``max_evaluations``, from the nominal
+      parameters where the solver uses a start), ``"hybrid"`` (both budgets).
+    - ``reference``: the citation shown in listings.
+    """
+
+    name: str
+    label: str
+    factory: Callable[..., eqx.Module]
+    kind: Kind
+    reference: str = ""
+
+
+METHOD_REGISTRY: dict[str, Method] = {}
+
+
+def register_method(name: str, label: str, factory: Callable[..., eqx.Module], kind: Kind,
+                    reference: str = "") -> Method:
+    """Add a method to the registry (and so to ``calibrate``, the CLI, the study and the tests)."""
+    if name in METHOD_REGISTRY:
+        raise ValueError(f"calibration method {name!r} is already registered")
+    if kind not in ("least_squares", "box", "hybrid"):
+        raise ValueError(f"kind must be 'least_squares', 'box' or 'hybrid', got {kind!r}")
+    METHOD_REGISTRY[name] = m = Method(name, label, factory, kind, reference)
+    return m
+
+
+def _hybrid(max_steps: int | None = None, **options: Any) -> VSASMCSThenLM:
+    local = LevenbergMarquardt() if max_steps is None else LevenbergMarquardt(max_steps=max_steps)
+    return VSASMCSThenLM(VSASMCS(**options), local)
+
+
+register_method("lm", "LM (optimistix)", LevenbergMarquardt, "least_squares",
+                "Levenberg 1944, Marquardt 1963; optimistix")
+register_method("lm-jaxopt", "LM (jaxopt)", JaxoptLevenbergMarquardt, "least_squares",
+                "Levenberg–Marquardt as implemented by jaxopt (cross-check)")
+register_method("cs", "CS", CuckooSearch, "box", "Yang & Deb 2009")
+register_method("smcs", "SMCS", SMCS, "box", "Wang et al. 2018, §2.1")
+register_method("vsa-smcs", "VSA-SMCS", VSASMCS, "box", "Wang et al. 2018, §2.2–2.3")
+register_method("vsa-smcs+lm", "VSA-SMCS+LM", _hybrid, "hybrid", "VSA-SMCS, then LM from its best nest")
+register_method("nelder-mead", "Nelder-Mead (bounded)", NelderMead, "box",
+                "Nelder & Mead 1965; Gao & Han 2012 coefficients; bounded by projection")
+
+METHODS = tuple(METHOD_REGISTRY)
+"""The registered method names, in registration order (at import time)."""
 
 DEFAULT_MAX_EVALUATIONS = 100_000
 """Default cost-evaluation budget of the metaheuristics (≈ 0.2 s of vmapped cost evaluations
 on one CPU core for the 8-pose problem)."""
 
-_POPULATION = {"cs": CuckooSearch, "smcs": SMCS, "vsa-smcs": VSASMCS}
+
+class _Labels(Mapping[str, str]):
+    """A live read-only view name → label of the registry."""
+
+    def __getitem__(self, name: str) -> str:
+        return METHOD_REGISTRY[name].label
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(METHOD_REGISTRY)
+
+    def __len__(self) -> int:
+        return len(METHOD_REGISTRY)
 
 
-def make_solver(method: str, max_steps: int | None = None, **options: Any) -> eqx.Module:
-    """The solver object of ``method`` with its hyper-parameters set from ``options``
+METHOD_LABELS: Mapping[str, str] = _Labels()
+"""Table labels of the registered methods (name → label), read from the registry."""
+
+
+def method(name: str) -> Method:
+    """The registered :class:`Method` of ``name``."""
+    try:
+        return METHOD_REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"unknown method {name!r}; expected one of {tuple(METHOD_REGISTRY)}") from None
+
+
+def method_label(name: str) -> str:
+    """The table label of a method (the name itself when it is not registered)."""
+    return METHOD_REGISTRY[name].label if name in METHOD_REGISTRY else name
+
+
+def make_solver(name: str, max_steps: int | None = None, **options: Any) -> eqx.Module:
+    """The solver object of method ``name`` with its hyper-parameters set from ``options``
     (field names of the solver class; for ``"vsa-smcs+lm"`` the fields of :class:`VSASMCS`,
     and ``max_steps`` for its LM phase)."""
-    if method in ("lm", "lm-jaxopt"):
-        cls = LevenbergMarquardt if method == "lm" else JaxoptLevenbergMarquardt
-        if max_steps is not None:
-            options["max_steps"] = max_steps
-        return cls(**options)
-    if method in _POPULATION:
-        return _POPULATION[method](**options)
-    if method == "nelder-mead":
-        return NelderMead(**options)
-    if method == "vsa-smcs+lm":
-        local = LevenbergMarquardt() if max_steps is None else LevenbergMarquardt(max_steps=max_steps)
-        return VSASMCSThenLM(VSASMCS(**options), local)
-    raise ValueError(f"unknown method {method!r}; expected one of {METHODS}")
+    m = method(name)
+    if m.kind == "least_squares" and max_steps is not None:
+        options["max_steps"] = max_steps
+    elif m.kind == "hybrid":
+        options["max_steps"] = max_steps
+    return m.factory(**options)
 
 
-def _run(solver, problem: CalibrationProblem, key, max_evaluations: int) -> OptimiseResult:
-    if isinstance(solver, (LevenbergMarquardt, JaxoptLevenbergMarquardt)):
-        return solver.run(problem)
-    if isinstance(solver, VSASMCSThenLM):
-        return solver.run(problem, key, max_evaluations)
-    if isinstance(solver, NelderMead) and solver.x0 is None:
-        solver = eqx.tree_at(lambda s: s.x0, solver, problem.initial,
-                             is_leaf=lambda x: x is None)
-    return minimise(solver, problem.cost, problem.lower, problem.upper, key, max_evaluations)
+def _residuals(u, problem):
+    return problem.residuals(u)
 
 
-@eqx.filter_jit
-def _run_one(solver, problem, key, max_evaluations):
-    return _run(solver, problem, key, max_evaluations)
+def _cost(u, problem):
+    return problem.cost(u)
+
+
+def _run(kind: Kind, solver, problem: CalibrationProblem, key, max_evaluations: int) -> OptimiseResult:
+    if kind == "least_squares":
+        return solver.run(_residuals, problem.initial, problem, _cost)
+    if kind == "hybrid":
+        return solver.run(_residuals, problem.lower, problem.upper, key, max_evaluations, problem, _cost)
+    return minimise(_cost, solver, problem.lower, problem.upper, key, max_evaluations=max_evaluations,
+                    y0=problem.initial, args=problem)
 
 
 @eqx.filter_jit
-def _run_batch(solver, problems, keys, max_evaluations):
-    return jax.vmap(lambda p, k: _run(solver, p, k, max_evaluations))(problems, keys)
+def _run_one(kind, solver, problem, key, max_evaluations):
+    return _run(kind, solver, problem, key, max_evaluations)
+
+
+@eqx.filter_jit
+def _run_batch(kind, solver, problems, keys, max_evaluations):
+    return jax.vmap(lambda p, k: _run(kind, solver, p, k, max_evaluations))(problems, keys)
 
 
 def _check_budget(max_evaluations: int) -> int:
@@ -105,13 +182,13 @@ def calibrate(
     max_steps: int | None = None,
     **options: Any,
 ) -> OptimiseResult:
-    """Calibrate: minimise ``S(u)`` (seed 000 eq. 9) over Ω with ``method`` (one of
-    :data:`METHODS`). ``key`` seeds the stochastic methods (default ``jax.random.key(0)``);
-    the result is deterministic for a given key. ``options`` are the solver's
-    hyper-parameters (see :func:`make_solver`)."""
+    """Calibrate: minimise ``S(u)`` (Wang et al. 2018, eq. 9) over Ω with ``method`` (a name in
+    :data:`METHOD_REGISTRY`). ``key`` seeds the stochastic methods (default
+    ``jax.random.key(0)``); the result is deterministic for a given key. ``options`` are the
+    solver's hyper-parameters (see :func:`make_solver`)."""
     solver = make_solver(method, max_steps, **options)
     key = jax.random.key(0) if key is None else key
-    return _run_one(solver, problem, key, _check_budget(max_evaluations))
+    return _run_one(METHOD_REGISTRY[method].kind, solver, problem, key, _check_budget(max_evaluations))
 
 
 def calibrate_batch(
@@ -128,4 +205,4 @@ def calibrate_batch(
     ``jax.tree.map(lambda *a: jnp.stack(a), *problems)``), ``keys`` one key per trial. One
     compilation for the whole batch; the result has the same leading axis."""
     solver = make_solver(method, max_steps, **options)
-    return _run_batch(solver, problems, keys, _check_budget(max_evaluations))
+    return _run_batch(METHOD_REGISTRY[method].kind, solver, problems, keys, _check_budget(max_evaluations))

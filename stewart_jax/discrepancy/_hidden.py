@@ -204,7 +204,7 @@ def _whitened_projector(geometry: Geometry, poses: np.ndarray, sigma: np.ndarray
     cov = np.einsum("mik,k,mjk->mij", jp, sigma**2, jp)
     w = np.linalg.inv(np.linalg.cholesky(cov))
     data = CalibrationData(jnp.zeros_like(jnp.asarray(poses)), jnp.asarray(poses))
-    g = np.asarray(_res_jac(geometry.params, data, geometry.v0)).reshape(len(poses), 6, 36)
+    g = np.asarray(_res_jac(geometry.params, data, geometry)).reshape(len(poses), 6, 36)
     gw = np.einsum("mij,mjk->mik", w, g).reshape(-1, 36)
     u, s, _ = np.linalg.svd(gw / np.linalg.norm(gw, axis=0), full_matrices=False)
     q = u[:, s > 1e-9 * s[0]]
@@ -249,7 +249,7 @@ def simulate_hidden_effect(
         meas = probe.measure(poses)
         q = probe.readings(probe.true_strokes(poses, cond), cond)
         noise_free = CalibrationData(jnp.asarray(q), jnp.asarray(meas))
-        sig = np.asarray(stroke_residuals(geometry.params, noise_free, geometry.v0))
+        sig = np.asarray(stroke_residuals(geometry.params, noise_free, geometry))
         w, basis = _whitened_projector(geometry, meas, sigma)
         sig_w = np.einsum("mij,mj->mi", w, sig.reshape(m, 6)).reshape(-1) / 1e-3
         orth = sig_w - basis @ (basis.T @ sig_w)

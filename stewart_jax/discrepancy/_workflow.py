@@ -677,7 +677,7 @@ def _prediction_factor(a_tr: np.ndarray, a_te: np.ndarray) -> np.ndarray:
     return (a_te[:, keep] / n[keep]) @ (vt[ok].T / sv[ok])
 
 
-def _heldout_chi2(r: np.ndarray, a_tr: np.ndarray, a_te: np.ndarray) -> float:
+def heldout_chi2(r: np.ndarray, a_tr: np.ndarray, a_te: np.ndarray) -> float:
     """``rᵀ (I + U Uᵀ)⁻¹ r`` with ``U Uᵀ = A_te (A_trᵀ A_tr)⁺ A_teᵀ`` (see
     :func:`_prediction_factor`), by Woodbury: ``rᵀr − (Uᵀr)ᵀ (I + UᵀU)⁻¹ (Uᵀr)``.
 
@@ -708,7 +708,7 @@ def _decide(b, s1, effects, slices, nb, alpha, known, model, train, test):
     white_te = np.einsum("mij,qmj->qmi", w_te, raw_te).reshape(k + 1, -1)
     scale2 = chi2[0] / dof0 if not known else 1.0
 
-    t0 = _heldout_chi2(white_te[0], jac_tr[:, g_cols], jac_te[:, g_cols])
+    t0 = heldout_chi2(white_te[0], jac_tr[:, g_cols], jac_te[:, g_cols])
     if known:
         p_detect = chi2_sf(t0, n_te)
     else:
@@ -727,7 +727,7 @@ def _decide(b, s1, effects, slices, nb, alpha, known, model, train, test):
         else:
             bic0 = n_tr * math.log(chi2[0] / n_tr) + rank_g * math.log(n_tr)
             bic = n_tr * math.log(max(chi2[i + 1], 1e-300) / n_tr) + (rank_g + df) * math.log(n_tr)
-        t = _heldout_chi2(white_te[i + 1], jac_tr[:, cols], jac_te[:, cols])
+        t = heldout_chi2(white_te[i + 1], jac_tr[:, cols], jac_te[:, cols])
         tp = chi2_sf(t, n_te) if known else f_sf((t / n_te) / scale2, n_te, dof0)
         theta = np.asarray(s1["z"][b, i + 1])[slices[i]] * np.asarray(e.scale) * np.asarray(e.report_factor)
         cands.append(

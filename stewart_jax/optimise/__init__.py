@@ -1,29 +1,46 @@
-"""Calibration optimisers (seed 000 §2 and baselines). Import them from ``stewart_jax``.
+"""Generic batched optimisers for any objective over a box (pytrees welcome).
 
-One algorithm per module, each opening with its citation: :mod:`.levy` (Mantegna),
-:mod:`.cuckoo` (CS), :mod:`.simplex` (Nelder–Mead on nests; bounded Nelder–Mead),
-:mod:`.smcs`, :mod:`.vsa_smcs`, :mod:`.levenberg_marquardt` (optimistix baseline),
-:mod:`.jaxopt_lm` (jaxopt cross-check), :mod:`.hybrid` (vsa-smcs+lm); :mod:`._driver` runs
-any of the iterative ones; :mod:`.calibrate` is the entry point.
+Nothing here knows about mechanisms or calibration: an objective is ``fn(y, args) -> scalar``
+(population and simplex methods, :func:`minimise`) or a residual ``fn(y, args) -> vector``
+(Levenberg–Marquardt, :func:`least_squares`); the optimistix argument order throughout.
+
+One algorithm per module, each opening with its citation: ``_levy`` (Mantegna's Lévy steps),
+``_cuckoo`` (cuckoo search, Yang & Deb 2009), ``_simplex`` (Nelder–Mead on nests; bounded
+Nelder–Mead), ``_smcs`` and ``_vsa_smcs`` (Wang et al. 2018, §2), ``_levenberg_marquardt``
+(optimistix baseline), ``_jaxopt_lm`` (jaxopt cross-check), ``_hybrid`` (VSA-SMCS then LM);
+``_driver`` runs every iterative one in one ``lax.scan``.
+
+A new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`) with its
+hyper-parameters as fields checked in ``__check_init__``; implement ``step`` with
+:func:`evaluate`, :func:`greedy`, :func:`uniform_in_box`, :func:`draw`, :func:`population_state`
+(and :func:`mantegna_step`, :func:`simplex_on_worst`); :func:`minimise` runs it. Statuses are
+:class:`RESULTS` items: ``result.status == RESULTS.successful``.
 """
 
+from ._cuckoo import CuckooSearch as CuckooSearch
 from ._driver import (
+    AbstractPopulationSolver as AbstractPopulationSolver,
     AbstractSolver as AbstractSolver,
     PopulationState as PopulationState,
+    draw as draw,
+    evaluate as evaluate,
+    greedy as greedy,
+    materialize as materialize,
     minimise as minimise,
+    population_state as population_state,
+    uniform_in_box as uniform_in_box,
 )
-from ._result import (
-    MAX_STEPS as MAX_STEPS,
-    NONFINITE as NONFINITE,
-    STATUS_NAMES as STATUS_NAMES,
-    SUCCESS as SUCCESS,
-    OptimiseResult as OptimiseResult,
-)
-from ._cuckoo import CuckooSearch as CuckooSearch
 from ._hybrid import VSASMCSThenLM as VSASMCSThenLM
 from ._jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
-from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, lm_calibrate as lm_calibrate
+from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, least_squares as least_squares
 from ._levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
+from ._result import (
+    RESULTS as RESULTS,
+    STATUS_NAMES as STATUS_NAMES,
+    OptimiseResult as OptimiseResult,
+    status_code as status_code,
+    status_name as status_name,
+)
 from ._simplex import (
     NelderMead as NelderMead,
     SimplexCoefficients as SimplexCoefficients,

@@ -12,8 +12,15 @@ Evaluation counting: ``n_evals`` counts every objective call that the jitted cod
 trial makes, including calls whose value a branch-free (vmapped) step computes and then
 discards. A sequential implementation of the same algorithm could make fewer.
 
-The objective is any ``fn(x) -> scalar``; NaN values are read as +inf before any
-comparison (:func:`nan_to_inf`), so that a failed evaluation can never become the best.
+The objective is any ``fn(y, args) -> scalar`` over a box of any pytree structure (raveled to
+one vector inside); NaN values are read as +inf before any comparison (:func:`nan_to_inf`), so
+that a failed evaluation can never become the best.
+
+Writing a new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`),
+give it its hyper-parameters as fields (validated in ``__check_init__``), implement ``step``
+(one generation, on :class:`PopulationState`) and ``step_evaluations``, using the helpers
+:func:`evaluate`, :func:`greedy`, :func:`uniform_in_box`, :func:`draw` and
+:func:`population_state`; :func:`minimise` runs it.
 """
 
 from __future__ import annotations
@@ -26,10 +33,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jax import lax
-from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray
+from jax.flatten_util import ravel_pytree
+from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
 from ._random import draw as draw
-from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
+from ._result import RESULTS, OptimiseResult
 
 
 def nan_to_inf(fn):
@@ -110,8 +118,9 @@ class AbstractSolver(eqx.Module):
     ``best_f`` and ``n_evals`` attributes."""
 
     @abc.abstractmethod
-    def init(self, fn, lower, upper, key: PRNGKeyArray) -> Any:
-        """Initial state (spends :meth:`init_evaluations` objective calls)."""
+    def init(self, fn, y0, lower, upper, key: PRNGKeyArray) -> Any:
+        """Initial state (spends :meth:`init_evaluations` objective calls). ``y0`` is the
+        start point, or ``None`` where the caller gave none; population methods ignore it."""
 
     @abc.abstractmethod
     def step(self, fn, state, lower, upper, key: PRNGKeyArray) -> Any:
@@ -120,6 +129,12 @@ class AbstractSolver(eqx.Module):
     @abc.abstractmethod
     def terminate(self, state) -> Bool[Array, ""]:
         """Converged (e.g. ``S(u_best) < ε``): the driver freezes the state from here on."""
+
+    def converged(self, history_cost, history_evaluations) -> Bool[Array, ""]:
+        """A convergence test on the run's history, evaluated once at the end for the status
+        (default: none beyond :meth:`terminate`)."""
+        del history_cost, history_evaluations
+        return jnp.asarray(False)
 
     def finalize(self, fn, state, lower, upper) -> Any:
         """Called once after the scan (default: nothing to do). Counts its own calls."""
@@ -146,20 +161,51 @@ def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
 
 
 class AbstractPopulationSolver(AbstractSolver):
-    """A population method (CS, SMCS, VSA-SMCS): ``n_nests`` nests uniform in Ω at init, and
-    stop once the best value falls below ``epsilon``."""
+    """A population method (CS, SMCS, VSA-SMCS): ``n_nests`` nests uniform in Ω at init.
+
+    Two convergence tests, both reported as ``RESULTS.successful``:
+
+    - ``epsilon``: the best value fell below it; the run stops there (the paper's ``ε``).
+      0 by default, so a default run spends its whole budget (fixed-budget comparisons).
+    - ``stall_generations``, ``stall_rtol``: over the last ``stall_generations`` generations
+      the best value improved by at most ``stall_rtol·|best|`` — the search has settled. This
+      is evaluated once, at the end, and never shortens a run. Defaults 100 and 1e-6.
+    """
 
     n_nests: eqx.AbstractVar[int]
     epsilon: eqx.AbstractVar[float]
+    stall_generations: eqx.AbstractVar[int]
+    stall_rtol: eqx.AbstractVar[float]
 
-    def init(self, fn, lower, upper, key):
+    def __check_init__(self):
+        _check(self, "n_nests", self.n_nests >= 2, "at least 2 nests")
+        _check(self, "epsilon", self.epsilon >= 0, ">= 0")
+        _check(self, "stall_generations", self.stall_generations >= 1, ">= 1")
+        _check(self, "stall_rtol", self.stall_rtol >= 0, ">= 0")
+
+    def init(self, fn, y0, lower, upper, key):
+        del y0  # nests start uniform in the box
         return init_population(fn, lower, upper, key, self.n_nests)
 
     def terminate(self, state):
         return state.best_f < self.epsilon
 
+    def converged(self, history_cost, history_evaluations):
+        # The last step that did work is the first index holding the final evaluation count
+        # (the count only grows; frozen steps repeat it).
+        last = jnp.argmax(history_evaluations)
+        ref = history_cost[jnp.maximum(last - self.stall_generations, 0)]
+        now = history_cost[last]
+        return (last >= self.stall_generations) & jnp.isfinite(now) & (ref - now <= self.stall_rtol * jnp.abs(now))
+
     def init_evaluations(self, n_dim):
         return self.n_nests
+
+
+def _check(solver, field: str, ok, requirement: str) -> None:
+    """Raise at construction when a hyper-parameter is out of range, naming it."""
+    if not bool(ok):
+        raise ValueError(f"{type(solver).__name__}.{field} must be {requirement}, got {getattr(solver, field)!r}")
 
 
 def n_steps_for_budget(solver: AbstractSolver, n_dim: int, max_evaluations: int) -> int:
@@ -179,25 +225,49 @@ def with_generation_budget(solver: AbstractSolver, n_generations: int) -> Abstra
 
 
 def minimise(
-    solver: AbstractSolver,
     fn,
-    lower: Float[Array, " d"],
-    upper: Float[Array, " d"],
+    solver: AbstractSolver,
+    lower: PyTree[Float[Array, "..."]],
+    upper: PyTree[Float[Array, "..."]],
     key: PRNGKeyArray,
-    max_evaluations: int,
     *,
+    max_evaluations: int,
+    y0: PyTree[Float[Array, "..."]] | None = None,
+    args: Any = None,
     return_state: bool = False,
 ):
-    """Minimise ``fn`` over the box ``[lower, upper]`` with ``solver`` within
-    ``max_evaluations`` objective calls. Pure and jittable (``solver`` and the budget are
-    static); deterministic for a given ``key``; vmap it over keys and objective data for
-    Monte Carlo.
+    """Minimise ``fn(y, args)`` over the box ``[lower, upper]`` with ``solver`` within
+    ``max_evaluations`` objective calls (the optimistix argument order).
+
+    ``lower``, ``upper`` (and ``y0``, the start of solvers that use one) may be any pytree of
+    arrays with one structure; ``result.params`` has that structure. Pure and jittable
+    (``solver`` and the budget are static); deterministic for a given ``key``; vmap it over
+    keys and ``args`` for Monte Carlo.
 
     Returns an :class:`OptimiseResult` (``history_*`` has one entry per scan step, frozen
     entries repeating the last value), and the final state too if ``return_state``.
     """
-    lower = jnp.asarray(lower, jnp.float64)
-    upper = jnp.asarray(upper, jnp.float64)
+    lower_flat, unravel = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), lower))
+    upper_flat, unravel_upper = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), upper))
+    if jax.tree.structure(lower) != jax.tree.structure(upper) or lower_flat.shape != upper_flat.shape:
+        raise ValueError("lower and upper must have the same pytree structure and shapes")
+    y0_flat = None
+    if y0 is not None:
+        y0_flat, _ = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), y0))
+        if y0_flat.shape != lower_flat.shape:
+            raise ValueError(f"y0 has {y0_flat.shape[0]} numbers, the box {lower_flat.shape[0]}")
+    if int(max_evaluations) != max_evaluations or max_evaluations < 1:
+        raise ValueError(f"max_evaluations must be a positive integer, got {max_evaluations}")
+
+    def flat_fn(x):
+        return fn(unravel(x), args)
+
+    result, state = _minimise_flat(flat_fn, solver, lower_flat, upper_flat, y0_flat, key, int(max_evaluations))
+    result = result._replace(params=unravel(result.params))
+    return (result, state) if return_state else result
+
+
+def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     n_dim = lower.shape[-1]
     fixed = solver.init_evaluations(n_dim) + solver.final_evaluations(n_dim)
     if fixed > max_evaluations:
@@ -212,7 +282,7 @@ def minimise(
     max_per_step += solver.final_evaluations(n_dim)
     fn = nan_to_inf(fn)
     k_init, k_steps = jax.random.split(key)
-    state = solver.init(fn, lower, upper, k_init)
+    state = solver.init(fn, y0, lower, upper, k_init)
 
     def body(state, k):
         frozen = solver.terminate(state) | (state.n_evals + max_per_step > max_evaluations)
@@ -222,14 +292,16 @@ def minimise(
 
     state, (hist_f, hist_n) = lax.scan(body, state, jax.random.split(k_steps, n_steps))
     state = solver.finalize(fn, state, lower, upper)
-    status = jnp.where(~jnp.isfinite(state.best_f), NONFINITE,
-                       jnp.where(solver.terminate(state), SUCCESS, MAX_STEPS))
+    hist_n = jnp.asarray(hist_n, jnp.int32)
+    done = solver.terminate(state) | solver.converged(hist_f, hist_n)
+    status = RESULTS.where(~jnp.isfinite(state.best_f), RESULTS.nonfinite,
+                           RESULTS.where(done, RESULTS.successful, RESULTS.max_steps_reached))
     result = OptimiseResult(
         params=state.best_x,
         cost=state.best_f,
         n_evaluations=jnp.asarray(state.n_evals, jnp.int32),
-        status=jnp.asarray(status, jnp.int32),
+        status=status,
         history_cost=hist_f,
-        history_evaluations=jnp.asarray(hist_n, jnp.int32),
+        history_evaluations=hist_n,
     )
-    return (result, state) if return_state else result
+    return result, state

@@ -1,7 +1,7 @@
 """``vsa-smcs+lm``: VSA-SMCS for the global phase, Levenberg–Marquardt to polish its best nest.
 
-Global phase: seed 000 §2.2–2.3 (Wang H., Cao X. et al., Infrared and Laser Engineering
-47(5), 2018), :mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963) via
+Global phase: Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope
+secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §2.2–2.3, :mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963) via
 optimistix, :mod:`.levenberg_marquardt`, started from the best nest. The usual
 memetic pattern (a population method to find the basin, a Newton-type method for the last
 digits) — e.g. Moscato P., Cotta C., "A gentle introduction to memetic algorithms",
@@ -14,10 +14,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import PRNGKeyArray
 
-from ..calibration._problem import CalibrationProblem
 from ._driver import minimise
-from ._result import NONFINITE, OptimiseResult
-from ._levenberg_marquardt import LevenbergMarquardt
+from ._levenberg_marquardt import LevenbergMarquardt, sum_of_squares
+from ._result import RESULTS, OptimiseResult
 from ._vsa_smcs import VSASMCS
 
 
@@ -34,21 +33,24 @@ class VSASMCSThenLM(eqx.Module):
     global_phase: VSASMCS = VSASMCS()
     local_phase: LevenbergMarquardt = LevenbergMarquardt()
 
-    def run(self, problem: CalibrationProblem, key: PRNGKeyArray, max_evaluations: int
+    def run(self, fn, lower, upper, key: PRNGKeyArray, max_evaluations: int, args=None, cost=None
             ) -> OptimiseResult:
-        g = minimise(self.global_phase, problem.cost, problem.lower, problem.upper, key,
-                     max_evaluations)
-        lm = self.local_phase.run(problem, g.params)
+        """Residuals ``fn(y, args)`` over the box ``[lower, upper]`` (arrays); ``cost(y, args)``
+        is the global phase's objective and the value reported (default ``Σ fn²``)."""
+        cost_fn = sum_of_squares(fn) if cost is None else cost
+        g = minimise(cost_fn, self.global_phase, lower, upper, key, max_evaluations=max_evaluations, args=args)
+        lm = self.local_phase.run(fn, g.params, args, cost_fn)
         better = jnp.isfinite(lm.cost) & (lm.cost <= g.cost)
         params = jnp.where(better, lm.params, g.params)
         cost = jnp.where(better, lm.cost, g.cost)
         n = g.n_evaluations + lm.n_evaluations
-        status = jnp.where(better, lm.status, jnp.where(jnp.isfinite(g.cost), g.status, NONFINITE))
+        status = RESULTS.where(better, lm.status,
+                               RESULTS.where(jnp.isfinite(g.cost), g.status, RESULTS.nonfinite))
         return OptimiseResult(
             params=params,
             cost=cost,
             n_evaluations=n,
-            status=jnp.asarray(status, jnp.int32),
+            status=status,
             history_cost=jnp.concatenate([g.history_cost, cost[None]]),
             history_evaluations=jnp.concatenate([g.history_evaluations, n[None]]),
         )

@@ -13,10 +13,9 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
 
-from ..calibration._problem import CalibrationProblem
-from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
+from ._levenberg_marquardt import sum_of_squares
+from ._result import RESULTS, OptimiseResult
 
 
 class JaxoptLevenbergMarquardt(eqx.Module):
@@ -35,14 +34,22 @@ class JaxoptLevenbergMarquardt(eqx.Module):
     gtol: float = 1e-14
     linear_solver: str = "cholesky"
 
-    def run(self, problem: CalibrationProblem, initial: Float[Array, "36"] | None = None
-            ) -> OptimiseResult:
-        """Minimise ``S(u)`` from ``initial`` (default: nominal). Pure and jittable."""
+    def __check_init__(self):
+        if not (int(self.max_steps) == self.max_steps and self.max_steps >= 1):
+            raise ValueError(f"JaxoptLevenbergMarquardt.max_steps must be a positive integer, got {self.max_steps!r}")
+        if not (self.xtol >= 0 and self.gtol >= 0):
+            raise ValueError(f"JaxoptLevenbergMarquardt tolerances must be >= 0, got xtol={self.xtol}, gtol={self.gtol}")
+        if self.linear_solver not in ("cholesky", "inv", "cg", "lu", "qr"):
+            raise ValueError(f"JaxoptLevenbergMarquardt.linear_solver {self.linear_solver!r} is not a jaxopt solver")
+
+    def run(self, fn, y0, args=None, cost=None) -> OptimiseResult:
+        """Minimise ``Σ fn(y, args)²`` from ``y0``; ``cost(y, args)`` is the value reported
+        (default the sum of squares). Pure and jittable."""
         import jaxopt  # arm's length: only this adapter imports jaxopt
 
-        y0 = problem.initial if initial is None else initial
+        cost_fn = sum_of_squares(fn) if cost is None else cost
         solver = jaxopt.LevenbergMarquardt(
-            residual_fun=lambda u, p: p.residuals(u),
+            residual_fun=fn,
             maxiter=self.max_steps,
             stop_criterion="madsen-nielsen",
             xtol=self.xtol,
@@ -52,10 +59,10 @@ class JaxoptLevenbergMarquardt(eqx.Module):
             implicit_diff=False,
             jit=True,
         )
-        params, state = solver.run(y0, problem)
-        cost = problem.cost(params)
+        params, state = solver.run(y0, args)
+        cost = cost_fn(params, args)
         steps = jnp.asarray(state.iter_num)
-        status = jnp.where(~jnp.isfinite(cost), NONFINITE,
-                           jnp.where(steps < self.max_steps, SUCCESS, MAX_STEPS))
+        status = RESULTS.where(~jnp.isfinite(cost), RESULTS.nonfinite,
+                               RESULTS.where(steps < self.max_steps, RESULTS.successful, RESULTS.max_steps_reached))
         n = jnp.asarray(steps + 1, jnp.int32)
-        return OptimiseResult(params, cost, n, jnp.asarray(status, jnp.int32), cost[None], n[None])
+        return OptimiseResult(params, cost, n, status, cost[None], n[None])

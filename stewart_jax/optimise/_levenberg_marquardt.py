@@ -1,24 +1,33 @@
-"""The reference baseline: Levenberg–Marquardt on the stroke residuals.
+"""The reference baseline: Levenberg–Marquardt for any least-squares problem.
 
-Levenberg K., Quart. Appl. Math. 2 (1944) 164–168; Marquardt D. W., J. SIAM 11 (1963)
-431–441 — as implemented by optimistix (``optimistix.LevenbergMarquardt``), applied to the
-residual vector E(u) of seed 000 eq. 8 from the nominal parameters (SPEC §4).
+Levenberg K., "A method for the solution of certain non-linear problems in least squares",
+Quart. Appl. Math. 2 (1944) 164–168; Marquardt D. W., "An algorithm for least-squares estimation
+of nonlinear parameters", J. SIAM 11 (1963) 431–441 — as implemented by optimistix
+(``optimistix.LevenbergMarquardt``). For calibration it is applied to the residual vector E(u)
+of Wang et al. (2018), eq. 8, from the nominal parameters.
 
-LM is unbounded: the result is reported whether or not it lies in Ω (from nominal it stays
-within a few mm on the paper's problems; ``OptimiseResult.params`` can be checked against the
-box by the caller).
+LM is unbounded: the result is reported whether or not it lies in a box (from nominal it stays
+within a few mm on the paper's problems; the caller can check ``OptimiseResult.params``).
 """
 
 from __future__ import annotations
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import optimistix as optx
-from jaxtyping import Array, Float
+from jax.flatten_util import ravel_pytree
 
-from ..calibration._problem import CalibrationProblem
-from ._result import MAX_STEPS, NONFINITE, SUCCESS, OptimiseResult
+from ._result import RESULTS, OptimiseResult
+
+
+def sum_of_squares(fn):
+    """``(y, args) -> Σ r²`` over every leaf of the residual pytree ``fn(y, args)``."""
+
+    def cost(y, args):
+        r, _ = ravel_pytree(fn(y, args))
+        return jnp.sum(r**2)
+
+    return cost
 
 
 class LevenbergMarquardt(eqx.Module):
@@ -26,33 +35,40 @@ class LevenbergMarquardt(eqx.Module):
 
     - ``rtol``, ``atol``: optimistix's step/cost tolerances (relative, absolute).
     - ``max_steps``: iteration budget; each step evaluates the residual once and its
-      36-column Jacobian once (forward mode).
+      Jacobian once (forward mode).
     """
 
     rtol: float = 1e-12
     atol: float = 1e-14
     max_steps: int = 200
 
-    def run(self, problem: CalibrationProblem, initial: Float[Array, "36"] | None = None) -> OptimiseResult:
-        """Minimise ``S(u)`` from ``initial`` (default: the problem's nominal parameters).
+    def __check_init__(self):
+        if not (self.rtol >= 0 and self.atol >= 0):
+            raise ValueError(f"LevenbergMarquardt tolerances must be >= 0, got rtol={self.rtol}, atol={self.atol}")
+        if not (int(self.max_steps) == self.max_steps and self.max_steps >= 1):
+            raise ValueError(f"LevenbergMarquardt.max_steps must be a positive integer, got {self.max_steps!r}")
 
-        Pure and jittable; vmap it over a batch of problems for Monte Carlo.
+    def run(self, fn, y0, args=None, cost=None) -> OptimiseResult:
+        """Minimise ``Σ fn(y, args)²`` from ``y0`` (any pytree). ``cost(y, args)`` is the value
+        reported (default the sum of squares; a caller may mark infeasible points +inf).
+
+        Pure and jittable; vmap it over ``args`` for Monte Carlo.
         """
-        y0 = problem.initial if initial is None else initial
+        cost_fn = sum_of_squares(fn) if cost is None else cost
         sol = optx.least_squares(
-            lambda u, p: p.residuals(u),
+            fn,
             optx.LevenbergMarquardt(rtol=self.rtol, atol=self.atol),
             y0,
-            args=problem,
+            args=args,
             max_steps=self.max_steps,
             throw=False,
         )
-        cost = problem.cost(sol.value)
+        cost = cost_fn(sol.value, args)
         steps = sol.stats["num_steps"]
-        status = jnp.where(
+        status = RESULTS.where(
             ~jnp.isfinite(cost),
-            NONFINITE,
-            jnp.where(sol.result == optx.RESULTS.successful, SUCCESS, MAX_STEPS),
+            RESULTS.nonfinite,
+            RESULTS.where(sol.result == optx.RESULTS.successful, RESULTS.successful, RESULTS.max_steps_reached),
         )
         return OptimiseResult(
             params=sol.value,
@@ -64,7 +80,8 @@ class LevenbergMarquardt(eqx.Module):
         )
 
 
-@jax.jit
-def lm_calibrate(problem: CalibrationProblem) -> OptimiseResult:
-    """:class:`LevenbergMarquardt` with its defaults, jitted."""
-    return LevenbergMarquardt().run(problem)
+def least_squares(fn, solver, y0, *, args=None, cost=None) -> OptimiseResult:
+    """Minimise ``Σ fn(y, args)²`` from ``y0`` with a least-squares ``solver``
+    (:class:`LevenbergMarquardt` or :class:`JaxoptLevenbergMarquardt`); the optimistix
+    argument order."""
+    return solver.run(fn, y0, args, cost)

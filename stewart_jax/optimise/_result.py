@@ -1,30 +1,58 @@
-"""The result type shared by every calibration optimiser."""
+"""The result type and the status enumeration shared by every optimiser."""
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
+import numpy as np
 from jaxtyping import Array, Float, Int
 
-SUCCESS = 0
-"""Converged (LM: tolerance met; metaheuristics: ``S(u_best) < ε``)."""
-MAX_STEPS = 1
-"""The step or evaluation budget ran out before convergence; ``params`` is the best found."""
-NONFINITE = 2
-"""The best cost is not finite: no feasible point was found."""
 
-STATUS_NAMES = {SUCCESS: "success", MAX_STEPS: "max_steps", NONFINITE: "nonfinite"}
+class RESULTS(eqx.Enumeration):
+    """How an optimiser stopped. Compare with ``==`` (elementwise for a batch of results):
+    ``result.status == RESULTS.successful``."""
+
+    successful = ""
+    max_steps_reached = (
+        "The step or evaluation budget ran out before the convergence test held; `params` is the "
+        "best point found."
+    )
+    nonfinite = "The best cost is not finite: no feasible point was found."
+
+
+_NAMES = (("success", RESULTS.successful), ("max_steps", RESULTS.max_steps_reached),
+          ("nonfinite", RESULTS.nonfinite))
+STATUS_NAMES = tuple(name for name, _ in _NAMES)
+"""The stable names of the statuses in files and on the command line, in code order."""
+
+
+def status_name(status) -> str | np.ndarray:
+    """``"success"``, ``"max_steps"`` or ``"nonfinite"`` for a status (an array of names for a
+    batch): the strings written to JSON."""
+    out = np.full(np.shape(np.asarray(status == RESULTS.successful)), "", dtype=object)
+    for name, item in _NAMES:
+        out[np.asarray(status == item)] = name
+    return str(out) if out.ndim == 0 else out
+
+
+def status_code(status) -> np.ndarray:
+    """The statuses as integers 0, 1, 2 (order of :data:`STATUS_NAMES`), e.g. for counting."""
+    codes = np.zeros(np.shape(np.asarray(status == RESULTS.successful)), dtype=np.int64)
+    for i, (_, item) in enumerate(_NAMES):
+        codes[np.asarray(status == item)] = i
+    return codes
 
 
 class OptimiseResult(NamedTuple):
     """What every optimiser returns; a pytree, so a batch of trials is one result with a
     leading trial axis.
 
-    - ``params``: ``Float[Array, "n"]``, the best parameters found.
-    - ``cost``: ``Float[Array, ""]``, the objective at ``params`` (S of eq. 9 for calibration).
+    - ``params``: the best parameters found (the structure of the start point or bounds:
+      an array ``Float[Array, "n"]`` or any pytree).
+    - ``cost``: ``Float[Array, ""]``, the objective at ``params`` (for least squares ``Σ r²``).
     - ``n_evaluations``: ``Int[Array, ""]``, objective (or residual-vector) evaluations used.
-    - ``status``: ``Int[Array, ""]``, one of :data:`SUCCESS`, :data:`MAX_STEPS`,
-      :data:`NONFINITE`.
+    - ``status``: a :class:`RESULTS` item.
     - ``history_cost``: ``Float[Array, "steps"]``, best cost after each generation/step.
     - ``history_evaluations``: ``Int[Array, "steps"]``, cumulative evaluations at each entry.
     """
@@ -32,6 +60,6 @@ class OptimiseResult(NamedTuple):
     params: Float[Array, " n"]
     cost: Float[Array, ""]
     n_evaluations: Int[Array, ""]
-    status: Int[Array, ""]
+    status: RESULTS
     history_cost: Float[Array, " steps"]
     history_evaluations: Int[Array, " steps"]

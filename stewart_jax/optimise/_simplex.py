@@ -108,6 +108,8 @@ class NelderMeadState(eqx.Module):
     - ``values``: ``Float[Array, "d+1"]``, the projected-penalised objective ``g`` there.
     - ``best_x``: the best vertex projected onto Ω; ``best_f``: ``g`` there (``f`` after the
       final step). ``n_evals``: objective calls. ``converged``: the simplex test passed.
+    - ``step``: ``Float[Array, "d"]``, the initial simplex's edge along each axis (the unit of
+      ``xtol``).
     """
 
     simplex: Float[Array, "k d"]
@@ -116,6 +118,7 @@ class NelderMeadState(eqx.Module):
     best_f: Float[Array, ""]
     n_evals: Array
     converged: Array
+    step: Float[Array, " d"]
 
 
 class NelderMead(AbstractSolver):
@@ -145,8 +148,9 @@ class NelderMead(AbstractSolver):
       along each axis (towards the farther bound); 0.1 — a tenth of the box.
     - ``penalty`` λ = 1: any positive value makes the box minimiser exact; 1 charges a vertex
       a full box width outside twice the objective's own scale.
-    - ``x0``: the start; ``None`` means the centre of the box (``calibrate`` passes the nominal
-      parameters).
+
+    The start point is :func:`~stewart_jax.optimise.minimise`'s ``y0`` (default: the centre of
+    the box; ``calibrate`` passes the nominal parameters).
 
     Evaluations: ``d + 1`` at init; per step two (the reflection and one of expansion or
     contraction, the latter computed even when the reflection is accepted), plus ``d`` on a
@@ -158,15 +162,22 @@ class NelderMead(AbstractSolver):
     ftol: float = 1e-14
     initial_scale: float = 0.1
     penalty: float = 1.0
-    x0: Float[Array, " d"] | None = None
+
+    def __check_init__(self):
+        for name in ("xtol", "ftol"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"NelderMead.{name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("initial_scale", "penalty"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"NelderMead.{name} must be > 0, got {getattr(self, name)!r}")
 
     def _coefficients(self, d: int) -> SimplexCoefficients:
         if self.coefficients is not None:
             return self.coefficients
         return SimplexCoefficients(1.0, 1.0 + 2.0 / d, 0.75 - 0.5 / d, 1.0 - 1.0 / d)
 
-    def _step_size(self, lower, upper):
-        x0 = 0.5 * (lower + upper) if self.x0 is None else jnp.asarray(self.x0, jnp.float64)
+    def _step_size(self, y0, lower, upper):
+        x0 = 0.5 * (lower + upper) if y0 is None else jnp.asarray(y0, jnp.float64)
         step = self.initial_scale * (upper - lower)
         return x0, jnp.where(upper - x0 >= x0 - lower, step, -step)
 
@@ -181,22 +192,21 @@ class NelderMead(AbstractSolver):
 
         return g
 
-    def _state(self, simplex, values, n_evals, lower, upper):
+    def _state(self, simplex, values, n_evals, lower, upper, step):
         order = jnp.argsort(values)
         simplex, values = simplex[order], values[order]
-        _, step = self._step_size(lower, upper)
         dx = jnp.max(jnp.abs((simplex[1:] - simplex[0]) / step))
         df = jnp.max(jnp.abs(values[1:] - values[0]))
         converged = (dx <= self.xtol) & (df <= self.ftol * (1.0 + jnp.abs(values[0])))
         return NelderMeadState(simplex, values, jnp.clip(simplex[0], lower, upper), values[0],
-                               jnp.asarray(n_evals, jnp.int32), converged)
+                               jnp.asarray(n_evals, jnp.int32), converged, step)
 
-    def init(self, fn, lower, upper, key):
+    def init(self, fn, y0, lower, upper, key):
         del key  # deterministic
-        x0, step = self._step_size(lower, upper)
+        x0, step = self._step_size(y0, lower, upper)
         simplex = jnp.concatenate([x0[None], x0[None] + jnp.diag(step)], axis=0)
         values = jax.vmap(self._objective(fn, lower, upper))(simplex)
-        return self._state(simplex, values, simplex.shape[0], lower, upper)
+        return self._state(simplex, values, simplex.shape[0], lower, upper, step)
 
     def step(self, fn, state, lower, upper, key):
         del key
@@ -230,7 +240,7 @@ class NelderMead(AbstractSolver):
             return x.at[-1].set(x_new), f.at[-1].set(f_new)
 
         x, f = jax.lax.cond(shrink, do_shrink, replace_worst, None)
-        return self._state(x, f, state.n_evals + 2 + jnp.where(shrink, d, 0), lower, upper)
+        return self._state(x, f, state.n_evals + 2 + jnp.where(shrink, d, 0), lower, upper, state.step)
 
     def terminate(self, state):
         return state.converged

@@ -11,8 +11,8 @@ clip their own trial points to Ω.
 
 from __future__ import annotations
 
+from ._cuckoo import check_levy_cuckoo, cs_generation
 from ._driver import AbstractPopulationSolver, population_state
-from ._cuckoo import cs_generation
 from ._levy import BETA
 from ._simplex import SimplexCoefficients, simplex_on_worst
 
@@ -28,6 +28,7 @@ class SMCS(AbstractPopulationSolver):
     - ``pa`` 0.25, ``alpha`` 0.01, ``beta`` 1.5: Yang & Deb's CS (see :class:`.CuckooSearch`).
     - ``coefficients``: Nelder–Mead coefficients (standard values).
     - ``epsilon``: stop when the best value falls below it; 0.0 (run the whole budget).
+    - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status.
 
     Evaluations: ``n_nests`` at init; ``3·n_worst + 2·n_nests`` per generation.
     """
@@ -39,6 +40,11 @@ class SMCS(AbstractPopulationSolver):
     beta: float = BETA
     coefficients: SimplexCoefficients = SimplexCoefficients()
     epsilon: float = 0.0
+    stall_generations: int = 100
+    stall_rtol: float = 1e-6
+
+    def __check_init__(self):
+        check_levy_cuckoo(self)
 
     def step(self, fn, state, lower, upper, key):
         nests, fit = simplex_on_worst(fn, state.nests, state.fitness, self.n_worst,

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
+from ._cuckoo import check_levy_cuckoo
 from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
 from ._levy import BETA, mantegna_from_normals
 from ._simplex import SimplexCoefficients, simplex_on_worst
@@ -55,6 +56,7 @@ class VSASMCS(AbstractPopulationSolver):
       (a fixed-budget comparison is what the study needs; set it to the expected noise floor,
       e.g. ``6m·σ_q²``, to stop early).
     - ``coefficients``: Nelder–Mead coefficients (standard values).
+    - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status.
 
     Evaluations: ``n_nests`` at init; ``2·n_nests + 3·n_worst`` per generation (110 with the
     paper's values). Every nest ever held lies in Ω.
@@ -70,6 +72,17 @@ class VSASMCS(AbstractPopulationSolver):
     max_generations: int | None = None
     epsilon: float = 0.0
     coefficients: SimplexCoefficients = SimplexCoefficients()
+    stall_generations: int = 100
+    stall_rtol: float = 1e-6
+
+    def __check_init__(self):
+        check_levy_cuckoo(self)
+        if not 1.0 <= self.p <= 30.0:
+            raise ValueError(f"VSASMCS.p must be in the paper's range [1, 30], got {self.p!r}")
+        if not self.sp_1 >= 0.0:
+            raise ValueError(f"VSASMCS.sp_1 must be >= 0, got {self.sp_1!r}")
+        if self.max_generations is not None and not self.max_generations >= 1:
+            raise ValueError(f"VSASMCS.max_generations must be None or >= 1, got {self.max_generations!r}")
 
     def step(self, fn, state, lower, upper, key):
         if self.max_generations is None:

@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..calibration._methods import METHOD_LABELS as METHOD_LABELS, method_label
 from ..calibration._problem import (
     COMPONENTS,
     CalibrationProblem,
@@ -41,6 +42,7 @@ from ..calibration._problem import (
 from ..calibration._simulation import default_tracker, random_poses, sampling_plan_120, simulate_measurements
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._pss import actual_geometry, nominal_geometry
+from ..optimise._result import status_code
 
 PAPER_TABLE2: dict[str, list[float]] = {
     "Before calibration": [532.07, 189.03, 174.38, 250.10, 374.02, 354.99],
@@ -49,16 +51,6 @@ PAPER_TABLE2: dict[str, list[float]] = {
 }
 """Wang et al. (2018), Table 2: maximum control error of one simulated calibration, dx/dy/dz in µm,
 φ/θ/ψ in ″ (8 random poses)."""
-
-METHOD_LABELS = {
-    "lm": "LM (optimistix)",
-    "lm-jaxopt": "LM (jaxopt)",
-    "cs": "CS",
-    "smcs": "SMCS",
-    "vsa-smcs": "VSA-SMCS",
-    "vsa-smcs+lm": "VSA-SMCS+LM",
-    "nelder-mead": "Nelder-Mead (bounded)",
-}
 
 BEFORE = "before"
 """Pseudo-method: the nominal parameters, uncalibrated."""
@@ -69,12 +61,13 @@ def _batch_calibrator(method: str, options: dict[str, Any]) -> Callable:
     if method == BEFORE:
 
         def before(problems, keys):
-            from ..optimise._result import OptimiseResult
+            from ..optimise._result import RESULTS, OptimiseResult
 
             n = keys.shape[0]
             cost = jax.vmap(lambda p: p.cost(p.initial))(problems)
             zeros = jnp.zeros((n, 1), jnp.int32)
-            return OptimiseResult(problems.initial, cost, zeros[:, 0], zeros[:, 0], cost[:, None], zeros)
+            status = jax.vmap(lambda _: RESULTS.successful)(zeros[:, 0])
+            return OptimiseResult(problems.initial, cost, zeros[:, 0], status, cost[:, None], zeros)
 
         return before
     from ..calibration._methods import calibrate_batch
@@ -210,7 +203,7 @@ def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
         "fk_ok": ok.tolist(),
         "cost": np.asarray(res.cost)[:n].tolist(),
         "n_evaluations": np.asarray(res.n_evaluations)[:n].tolist(),
-        "status": np.asarray(res.status)[:n].tolist(),
+        "status": status_code(res.status)[:n].tolist(),
         "history_cost": np.asarray(res.history_cost)[:n].tolist(),
         "history_evaluations": np.asarray(res.history_evaluations)[:n].tolist(),
         "seconds": seconds,
@@ -316,7 +309,7 @@ def run_study(
                 log(f"  {method}: trials {stop}/{n_trials} ({done[str(start)]['seconds']:.1f} s for this chunk)")
         parts = [done[str(s)] for s in range(0, n_trials, chunk)]
         merged = {k: sum((p[k] for p in parts), []) for k in parts[0] if k != "seconds"}
-        label = "Before calibration" if method == BEFORE else METHOD_LABELS.get(method, method)
+        label = "Before calibration" if method == BEFORE else method_label(method)
         rows[label] = _row(method, options.get(method, {}), merged, [p["seconds"] for p in parts], keep_trials)
     return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
             "n_devices": n_devices, "rows": rows, "paper_table2": PAPER_TABLE2}
