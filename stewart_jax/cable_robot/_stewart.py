@@ -44,15 +44,6 @@ def _f64(x):
     return jnp.asarray(x, jnp.float64)
 
 
-def hat(v: Float[Array, "... 3"]) -> Float[Array, "... 3 3"]:
-    """Skew matrix ``[v]×`` with ``hat(v) @ u = v × u``."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = jnp.zeros_like(x)
-    return jnp.stack(
-        [jnp.stack([o, -z, y], -1), jnp.stack([z, o, -x], -1), jnp.stack([-y, x, o], -1)], -2
-    )
-
-
 def joint_circle(
     radius: float, short_edge: float, pair_centres_deg: tuple[float, float, float], first_low: bool
 ) -> np.ndarray:
