@@ -1,4 +1,5 @@
-"""Benchmark of the FAST coupled simulation (seed 002): real-time factor of one jitted
+"""Benchmark of the FAST coupled simulation (Yin et al., *Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST*): real-time factor of one jitted
 trajectory and throughput of a vmapped workspace map of Table-2 amplitudes.
 
 Usage: ``.venv/bin/python benchmarks/fast.py [--duration 2] [--map-n 10] [--repeats 5] [--pin-core 0]``
@@ -131,7 +132,7 @@ def main(argv=None):
     with open(os.path.join(RESULTS, f"{name}.json"), "w") as f:
         json.dump(out, f, indent=2)
     lines = [
-        "# FAST coupled simulation benchmark (seed 002)", "",
+        "# FAST coupled simulation benchmark (Yin et al.)", "",
         f"`{info['command']}` on {info['platform']}, {info['cpu_count']} CPUs "
         f"(1-min load average at the end: {info['load_average_1m_at_end']:.1f}"
         f"{'' if args.pin_core is None else f'; process pinned to core {args.pin_core}'}; "

@@ -12,7 +12,10 @@
 # ---
 
 # %% [markdown]
-# # 3. FAST feed-support dynamics (Yin et al., seed 002: Figs. 6–9, Table 2)
+# # 3. FAST feed-support dynamics (Yin et al.: Figs. 6–9, Table 2)
+#
+# Yin J., Jiang P., Chen M., Yao R., *Dynamic modeling of a cable-driven parallel robot with a
+# Stewart platform for use in FAST*; the model is `stewart_jax.cable_robot`.
 #
 # Six elastic catenary cables hold the feed cabin; inside it a Stewart platform moves its
 # lower platform `x(t) = 0.01 sin(10πt)` m along B's x axis. The reaction forces shake the
@@ -21,7 +24,7 @@
 # the standard deviation of their difference and the amplitude of the extra error, at four
 # cabin positions on the focal surface.
 #
-# Settings the paper does not give (see `stewart_jax/fast/README_SECTION.md`): duration, time
+# Settings the paper does not give (see `docs/cable_robot.md`): duration, time
 # step, initial velocity state (`start="momentum"`: zero total momentum). Quick mode
 # (`STEWART_JAX_QUICK=1`) simulates 0.2 s at 2 ms; the full mode, 2 s at 1 ms (the CLI default).
 
@@ -33,7 +36,7 @@ import jax
 import numpy as np
 
 import stewart_jax as sj
-from stewart_jax import cable_robot as fast, plotting
+from stewart_jax import cable_robot, plotting
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 DURATION, DT = (0.2, 2e-3) if QUICK else (2.0, 1e-3)
@@ -47,7 +50,7 @@ def figure_path(name):
     return None if FIGURES is None else FIGURES / name
 
 
-params = fast.paper_fast_params()
+params = cable_robot.paper_fast_params()
 print(f"quick={QUICK}: duration {DURATION} s, dt {DT} s, velocity Verlet, momentum start")
 
 # %% [markdown]
@@ -55,15 +58,15 @@ print(f"quick={QUICK}: duration {DURATION} s, dt {DT} s, velocity Verlet, moment
 
 # %%
 runs = {}
-for pos in fast.PAPER_POSITIONS:
-    res = jax.block_until_ready(fast.run_scenario_jit(params, np.array(pos), duration=DURATION, dt=DT))
+for pos in cable_robot.PAPER_POSITIONS:
+    res = jax.block_until_ready(cable_robot.run_scenario_jit(params, np.array(pos), duration=DURATION, dt=DT))
     runs[pos] = res
     print(f"{list(pos)} m: static equilibrium converged: {bool(res.static_ok)}; "
           f"failed catenary solves: {int(res.n_failed)}")
 
-centre = runs[fast.PAPER_POSITIONS[0]]
+centre = runs[cable_robot.PAPER_POSITIONS[0]]
 fig = plotting.plot_fast_time_series(
-    centre, title=f"seed 002 Figs. 6–9 at [0, 0, 140] m ({DURATION} s, dt {DT * 1e3:g} ms)"
+    centre, title=f"Yin et al. Figs. 6–9 at [0, 0, 140] m ({DURATION} s, dt {DT * 1e3:g} ms)"
 )
 plotting.show(fig, figure_path("03_figs6-9.png"))
 
@@ -87,12 +90,12 @@ print(f"{'position (m)':>20} {'axis':>4} {'corr':>8} {'std (m)':>10} {'paper std
       f"{'amp (m)':>10} {'p-p (m)':>10} {'paper amp':>10}")
 for pos, v in ours.items():
     for k, ax in enumerate("xyz"):
-        ps, pa = fast.PAPER_TABLE2[pos][ax]
+        ps, pa = cable_robot.PAPER_TABLE2[pos][ax]
         print(f"{str(list(pos)):>20} {ax:>4} {v['correlation'][k]:8.4f} {v['std'][k]:10.3e} {ps:10.3e} "
               f"{v['amplitude'][k]:10.3e} {v['peak_to_peak'][k]:10.3e} {pa:10.3e}")
-print("paper's correlations at the centre:", fast.PAPER_CORRELATION_CENTRE)
-fig = plotting.plot_fast_table2(ours, paper=fast.PAPER_TABLE2,
-                                title=f"seed 002 Table 2: ours ({DURATION} s) vs ◇ paper")
+print("paper's correlations at the centre:", cable_robot.PAPER_CORRELATION_CENTRE)
+fig = plotting.plot_fast_table2(ours, paper=cable_robot.PAPER_TABLE2,
+                                title=f"Yin et al. Table 2: ours ({DURATION} s) vs ◇ paper")
 plotting.show(fig, figure_path("03_table2.png"))
 
 # %% [markdown]
@@ -105,7 +108,7 @@ plotting.show(fig, figure_path("03_table2.png"))
 if QUICK:
     print("quick mode: time-step check skipped")
 else:
-    half = jax.block_until_ready(fast.run_scenario_jit(params, np.array(fast.PAPER_POSITIONS[0]),
+    half = jax.block_until_ready(cable_robot.run_scenario_jit(params, np.array(cable_robot.PAPER_POSITIONS[0]),
                                                        duration=DURATION, dt=DT / 2))
     for name in ("correlation", "std", "amplitude"):
         a, b = float(getattr(centre, name)[0]), float(getattr(half, name)[0])

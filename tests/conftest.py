@@ -1,6 +1,10 @@
 """Shared fixtures. Geometries and pose grids are module-level so that jitted functions
 compile once per shape across the whole session."""
 
+import os
+
+os.environ["MPLBACKEND"] = "Agg"  # the tests only write figures; the library never picks a backend
+
 import jax
 import numpy as np
 import pytest

@@ -3,17 +3,16 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import types
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-from stewart_jax import plotting  # noqa: E402
+from stewart_jax import plotting
 
 
 def _check(fig, min_axes=1, shared_y=False):
@@ -27,13 +26,24 @@ def _check(fig, min_axes=1, shared_y=False):
     plt.close(fig)
 
 
-def test_not_imported_by_the_package():
-    import subprocess
-    import sys
+def _run(code, **env):
+    env = {**{k: v for k, v in os.environ.items() if k not in ("MPLBACKEND", "DISPLAY", "WAYLAND_DISPLAY")},
+           **env}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                          env=env).stdout
 
+
+def test_not_imported_by_the_package():
     code = "import sys, stewart_jax; print('matplotlib' in sys.modules, 'stewart_jax.plotting' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.split() == ["False", "False"]
+    assert _run(code).split() == ["False", "False"]
+
+
+def test_library_chooses_no_backend_and_imports_no_cable_robot():
+    # Headless and no MPLBACKEND: importing the plotting package must leave the backend to the
+    # caller, and must not import the cable-robot package (its figures are duck-typed).
+    code = ("import sys, matplotlib; calls = []; matplotlib.use = lambda *a, **k: calls.append(a); "
+            "import stewart_jax.plotting; print(calls, 'stewart_jax.cable_robot' in sys.modules)")
+    assert _run(code).split() == ["[]", "False"]
 
 
 def test_pose_errors_with_paper_lines():
@@ -95,7 +105,7 @@ def _fake_report():
     rng = np.random.default_rng(1)
     model = types.SimpleNamespace(output_names=tuple(f"leg{i}" for i in range(1, 7)), report_unit="µm")
     return types.SimpleNamespace(
-        ranking=cand, named_effect="backlash", indistinguishable_from=[], gap_before=0.3, gap_after=0.12,
+        model="6-pss", ranking=cand, named_effect="backlash", indistinguishable_from=[], gap_before=0.3, gap_after=0.12,
         noise_floor=0.11, fitted=types.SimpleNamespace(model=model), residuals_before=rng.normal(size=(20, 6)),
         residuals_after=0.1 * rng.normal(size=(20, 6)),
         test_factors={"direction": rng.choice([-1.0, 1.0], (20, 6)), "time_s": rng.uniform(0, 100, (20, 6))},
@@ -111,6 +121,18 @@ def test_discrepancy_figures():
     _check(fig, 6, shared_y=True)
     with pytest.raises(ValueError):
         plotting.plot_residuals_vs_factor(rep, "nope")
+    _check(plotting.plot_residuals_vs_factor(rep, "direction", which="before"), 6, shared_y=True)
+
+
+def test_residual_files(tmp_path):
+    rep = _fake_report()
+    paths = plotting.plot_residuals(rep, tmp_path / "res", factors=["time_s"])
+    assert [os.path.basename(p) for p in paths] == ["residuals_time_s.png"]
+    assert os.path.getsize(paths[0]) > 1000 and plt.get_fignums() == []
+    with pytest.raises(ValueError, match="unknown factor"):
+        plotting.plot_residuals(rep, tmp_path, factors=["humidity"])
+    with pytest.raises(ValueError, match="which"):
+        plotting.plot_residuals(rep, tmp_path, which="neither")
 
 
 def test_show_saves_and_closes(tmp_path):

@@ -101,6 +101,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     if args.out_geometry:
         save_mechanism(nominal.with_params(params), args.out_geometry)
     if args.plot:
+        _file_backend()
         from .. import plotting
         from ..calibration._problem import stroke_residuals
 
@@ -142,6 +143,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         with open(args.json, "w") as f:
             json.dump(result, f, indent=2)
     if args.plot:
+        _file_backend()
         from .. import plotting
         from ..study._study import PAPER_TABLE2
 
@@ -150,6 +152,13 @@ def _cmd_study(args: argparse.Namespace) -> int:
         plotting.show(plotting.plot_table_comparison(rows, paper=paper, title=f"{args.plan}, {args.trials} trials"),
                       args.plot)
     return 0
+
+
+def _file_backend() -> None:
+    # --plot only writes a file: the non-interactive backend, chosen before pyplot is imported.
+    import matplotlib
+
+    matplotlib.use("Agg")
 
 
 def _noise_args(p: argparse.ArgumentParser) -> None:

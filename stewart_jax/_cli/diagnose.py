@@ -38,6 +38,9 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "estimate_noise": args.estimate_noise,
     }
     if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")  # --plot only writes files
         from ..plotting._discrepancy import plot_residuals
 
         out["plots"] = plot_residuals(report, args.plot)

@@ -1,4 +1,5 @@
-"""``stewart-jax fast``: the §6 scenario of seed 002 at one cabin position (SPEC §6).
+"""``stewart-jax fast``: the scenario of Yin et al., *Dynamic modeling of a cable-driven parallel
+robot with a Stewart platform for use in FAST*, §6 (eqs. 61–66, Table 2), at one cabin position.
 
 JSON keys: ``axes`` → ``x``/``y``/``z`` → ``correlation``, ``std_m``, ``amplitude_m`` (max |extra
 error|), ``peak_to_peak_m``; plus ``position_m``, ``duration_s``, ``dt_s``, ``start``, ``method``,
@@ -31,8 +32,8 @@ def add_fast_parser(subparsers) -> argparse.ArgumentParser:
     """Register the ``fast`` subcommand on an ``argparse`` subparsers object."""
     p = subparsers.add_parser(
         "fast",
-        help="FAST feed support: cable + Stewart coupled vibration scenario (seed 002, Table 2)",
-        description="Run the 5 Hz, 10 mm lower-platform scenario of seed 002 §6 at one cabin "
+        help="FAST feed support: cable + Stewart coupled vibration scenario (Yin et al., Table 2)",
+        description="Run the 5 Hz, 10 mm lower-platform scenario of Yin et al. §6 at one cabin "
         "position and report Table 2's columns per axis.",
     )
     p.add_argument("--position", type=_position, default=(0.0, 0.0, 140.0),
@@ -56,8 +57,7 @@ def run_fast(args: argparse.Namespace) -> int:
 
     import stewart_jax  # noqa: F401  (float64)
 
-    from ..cable_robot._scenario import PAPER_TABLE2, run_scenario_jit
-    from ..cable_robot._system import paper_fast_params
+    from ..cable_robot import PAPER_TABLE2, paper_fast_params, run_scenario_jit
 
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
@@ -118,24 +118,7 @@ def run_fast(args: argparse.Namespace) -> int:
 def _plot(res, path: str) -> None:
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    matplotlib.use("Agg")  # --plot only writes a file
+    from .. import plotting
 
-    t = np.asarray(res.time)
-    fig, axs = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
-    axs[0].plot(t, np.asarray(res.planned)[:, 0] * 1e3, label="planned x")
-    axs[0].plot(t, np.asarray(res.actual)[:, 0] * 1e3, label="actual x (eq. 65)")
-    axs[0].set_ylabel("lower platform (mm)")
-    for k, ax in enumerate("xyz"):
-        axs[1].plot(t, np.asarray(res.extra_error)[:, k] * 1e3, label=ax)
-        axs[2].plot(t, np.asarray(res.cabin_displacement)[:, k] * 1e3, label=ax)
-        axs[3].plot(t, np.asarray(res.cabin_angle)[:, k] * 1e6, label=ax)
-    axs[1].set_ylabel("extra error (mm, eq. 66)")
-    axs[2].set_ylabel("cabin displacement (mm)")
-    axs[3].set_ylabel("cabin angle (µrad)")
-    axs[3].set_xlabel("t (s)")
-    for a in axs:
-        a.legend(loc="upper right", fontsize=8)
-    fig.suptitle("Seed 002 Figs. 6–9")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    plotting.show(plotting.plot_fast_time_series(res, title="Yin et al. Figs. 6–9"), path)

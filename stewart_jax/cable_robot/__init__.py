@@ -1,6 +1,9 @@
-"""FAST feed-support dynamics: elastic-catenary cables, a Stewart platform in the moving cabin,
-and their coupled time simulation (Yin, Jiang, Chen, Yao, *Dynamic modeling of a cable-driven
-parallel robot with a Stewart platform for use in FAST*; seed 002; SPEC §5).
+"""The FAST cable-driven feed support: elastic-catenary cables, a Stewart platform in the
+moving cabin, and their coupled time simulation.
+
+Yin J., Jiang P., Chen M., Yao R., *Dynamic modeling of a cable-driven parallel robot with a
+Stewart platform for use in FAST* (manuscript received 2021-07-05; "Yin et al." in the
+modules). Equation, table and figure numbers below are the paper's.
 
 SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_enable_x64``).
 

@@ -1,4 +1,4 @@
-"""Elastic catenary cable of the FAST feed support (seed 002, §2, eqs. 6–13).
+"""Elastic catenary cable of the FAST feed support (Yin et al., §2, eqs. 6–13).
 
 Each cable hangs from its tower top (upper end) and holds a cabin anchor (lower end). In the
 cable's frame A (origin at the lower end, axes parallel to the global frame G) the
@@ -29,7 +29,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 
 class CableParams(eqx.Module):
-    """Material of one cable (seed 002, Table 1); SI units. A pytree of scalars.
+    """Material of one cable (Yin et al., Table 1); SI units. A pytree of scalars.
 
     - ``EA``: axial stiffness ``E·A`` (N), 1.243e8.
     - ``rho``: unstretched linear density (kg/m), 13.898.

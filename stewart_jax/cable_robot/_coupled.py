@@ -1,4 +1,4 @@
-"""Coupled time simulation of the cable-suspended cabin and the Stewart platform (seed 002,
+"""Coupled time simulation of the cable-suspended cabin and the Stewart platform (Yin et al.,
 §5, eqs. 54–60, Fig. 5).
 
 The cabin + upper platform is one rigid body with state ``(G t_C, q_C, G ṫ_C, G ω_C)`` (unit

@@ -1,4 +1,4 @@
-"""The paper's simulation scenario and its Table 2 (seed 002, §6, eqs. 61–66, Figs. 6–9).
+"""The paper's simulation scenario and its Table 2 (Yin et al., §6, eqs. 61–66, Figs. 6–9).
 
 The cabin starts at rest in static equilibrium at ``G t_C(0)`` with ``G R_C(0) = C R_B = I``
 (eq. 61); the lower platform moves along B's x axis, ``B x_P(t) = (A sin(2π f t), 0, 0)``
@@ -51,7 +51,7 @@ PAPER_TABLE2 = {
     (90.0, 0.0, 167.7): {"x": (1.3522e-4, 1.5803e-3), "y": (9.9746e-5, 8.6194e-4),
                          "z": (9.1965e-5, 1.1049e-3)},
 }
-"""Table 2 of seed 002: per position and axis, (std of difference, amplitude) in metres."""
+"""Table 2 of Yin et al.: per position and axis, (std of difference, amplitude) in metres."""
 
 PAPER_CORRELATION_CENTRE = {"x": 0.9717, "y": 0.9915, "z": 0.9720}
 """Correlations quoted in §6 for ``[0, 0, 140]`` m."""

@@ -1,4 +1,4 @@
-"""Initial static equilibrium of the suspended FAST cabin (seed 002, §2 after eq. 13, and §5).
+"""Initial static equilibrium of the suspended FAST cabin (Yin et al., §2 after eq. 13, and §5).
 
 At a cabin pose ``(G t_C, G R_C)`` with the Stewart platform at rest, the 24 unknowns are, for
 each of the six cables, the lower-end force ``F[i]`` (3) and the unstretched length ``s0[i]``

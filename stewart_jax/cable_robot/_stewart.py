@@ -1,12 +1,12 @@
 """Stewart platform inside the FAST feed cabin: geometry, leg kinematics and Newton–Euler
-inverse dynamics in the moving (non-inertial) cabin frame (seed 002, §3–§4, eqs. 3–5 and
+inverse dynamics in the moving (non-inertial) cabin frame (Yin et al., §3–§4, eqs. 3–5 and
 14–53, parameters of Table 1).
 
 Frames: G global (inertial), B upper platform (fixed to the cabin), P lower platform, L[i]
 leg ``i`` (origin at the upper joint ``B[i]``, x along the leg, eqs. 35–38). Vectors carry
 the frame they are expressed in as a prefix in the names (``G_``, ``B_``, ``L_``).
 
-Readings of the paper (SPEC §5 and the choices written here):
+Readings of the paper (where it is ambiguous or misprinted):
 
 - Joint layout (Table 1, Fig. 4 is not in the text): upper joints ``B[i]`` on the circle
   ``r_B = 2.0 m`` in pairs ``(B6, B1), (B2, B3), (B4, B5)`` of chord ``|B1B6| = 0.349 m``,
@@ -44,15 +44,6 @@ def _f64(x):
     return jnp.asarray(x, jnp.float64)
 
 
-def hat(v: Float[Array, "... 3"]) -> Float[Array, "... 3 3"]:
-    """Skew matrix ``[v]×`` with ``hat(v) @ u = v × u``."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = jnp.zeros_like(x)
-    return jnp.stack(
-        [jnp.stack([o, -z, y], -1), jnp.stack([z, o, -x], -1), jnp.stack([-y, x, o], -1)], -2
-    )
-
-
 def joint_circle(
     radius: float, short_edge: float, pair_centres_deg: tuple[float, float, float], first_low: bool
 ) -> np.ndarray:
@@ -76,7 +67,7 @@ def joint_circle(
 
 
 class StewartParams(eqx.Module):
-    """Stewart platform of the FAST cabin (seed 002, Table 1); SI units.
+    """Stewart platform of the FAST cabin (Yin et al., Table 1); SI units.
 
     - ``B``: ``Float[Array, "6 3"]``, upper joints ``B[i]`` in frame B.
     - ``P``: ``Float[Array, "6 3"]``, lower joints ``P[i]`` in frame P.
@@ -105,7 +96,7 @@ class StewartParams(eqx.Module):
 
 
 def paper_stewart_params(gravity: ArrayLike = (0.0, 0.0, -9.8)) -> StewartParams:
-    """The Stewart platform of Table 1 (seed 002) with the joint layout described in the
+    """The Stewart platform of Yin et al., Table 1, with the joint layout described in the
     module docstring."""
     return StewartParams(
         B=joint_circle(2.0, 0.349, (30.0, 150.0, 270.0), first_low=False),

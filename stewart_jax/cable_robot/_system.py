@@ -1,5 +1,5 @@
 """The whole FAST feed-support model: towers, cable anchors, cabin and Stewart platform, and
-the cabin's Newton–Euler equations (seed 002, eqs. 1–2, 54–60, Table 1).
+the cabin's Newton–Euler equations (Yin et al., eqs. 1–2, 54–60, Table 1).
 
 The cabin and the upper platform are one rigid body (frame C; B is fixed in C by ``C R_B``
 and ``C t_B``). Its equations of motion about the origin of C (eqs. 57–58) are
@@ -20,7 +20,7 @@ accelerations ``(ẗ_C, ε_C)`` through eqs. 34, 47–50 and 52–53, and it dep
 ``a = -J⁻¹ r(0)``. No fixed-point iteration between the cable model and
 the Stewart model is needed (the paper's Fig. 5 iterates). Only the legs' total wrench on the
 upper platform enters eqs. 57–58, so the time loop takes it from the momentum balance of legs +
-lower platform (:func:`~stewart_jax.fast.reaction_wrench`), which equals eq. 29 summed without
+lower platform (:func:`~stewart_jax.cable_robot.reaction_wrench`), which equals eq. 29 summed without
 solving eq. 22 for the six leg forces; the leg forces are computed where they are reported.
 
 The acceleration of B's origin is ``ẗ_B = ẗ_C + ε_C × (R_C t_B) + ω_C × (ω_C × R_C t_B)``;
@@ -58,7 +58,7 @@ def _f64(x):
 
 
 class FastParams(eqx.Module):
-    """The FAST feed support of seed 002, Table 1; SI units.
+    """The FAST feed support of Yin et al., Table 1; SI units.
 
     - ``cable``: :class:`CableParams` (the six cables are alike).
     - ``towers``: ``Float[Array, "6 3"]``, tower tops ``T[i]`` in G (eq. 1).
@@ -98,7 +98,7 @@ def anchor_positions(r_A: float = 6.5) -> np.ndarray:
 
 
 def paper_fast_params(g: float = -9.8) -> FastParams:
-    """Table 1 of seed 002 (``g`` is the signed vertical gravity, Table 1 writes -9.8)."""
+    """Table 1 of Yin et al. (``g`` is the signed vertical gravity, Table 1 writes -9.8)."""
     gravity = np.array([0.0, 0.0, g])
     return FastParams(
         cable=CableParams(EA=1.243e8, rho=13.898, g=g),

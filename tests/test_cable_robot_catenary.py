@@ -1,4 +1,5 @@
-"""Elastic catenary (seed 002, eqs. 6–13) against a numerical integration of the cable's
+"""Elastic catenary (Yin et al., *Dynamic modeling of a cable-driven parallel robot with a Stewart
+platform for use in FAST*, eqs. 6–13) against a numerical integration of the cable's
 differential equations, finite differences, and round trips."""
 
 import jax

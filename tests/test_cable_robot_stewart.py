@@ -1,4 +1,5 @@
-"""Newton–Euler inverse dynamics of the Stewart platform in the moving cabin (seed 002,
+"""Newton–Euler inverse dynamics of the Stewart platform in the moving cabin (Yin et al.,
+*Dynamic modeling of a cable-driven parallel robot with a Stewart platform for use in FAST*,
 eqs. 14–53) against independent formulations: the power balance and the momentum balance of
 legs + lower platform, written here from positions only (velocities and accelerations by
 automatic differentiation in time), and the equivalence principle."""

@@ -1,5 +1,6 @@
 """Static equilibrium (24×24), the coupled simulation at rest, and the §6 scenario / Table 2 of
-seed 002 at [0, 0, 140] m."""
+Yin et al., *Dynamic modeling of a cable-driven parallel robot with a Stewart platform for use in
+FAST*, at [0, 0, 140] m."""
 
 import jax
 import jax.numpy as jnp
