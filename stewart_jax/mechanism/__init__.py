@@ -14,6 +14,7 @@ from ._batched import (
     inverse_kinematics_sharded as inverse_kinematics_sharded,
     inverse_kinematics_soa as inverse_kinematics_soa,
 )
+from ._genhexkins import to_genhexkins as to_genhexkins
 from ._kinematics import (
     FKSolution as FKSolution,
     forward_kinematics as forward_kinematics,
@@ -44,4 +45,11 @@ from ._registry import (
     register_family as register_family,
     register_preset as register_preset,
     save_mechanism as save_mechanism,
+)
+from ._ups import (
+    FAST_STEWART_TRAVEL as FAST_STEWART_TRAVEL,
+    UPSMechanism as UPSMechanism,
+    fast_stewart as fast_stewart,
+    rubin_camera as rubin_camera,
+    rubin_m2 as rubin_m2,
 )

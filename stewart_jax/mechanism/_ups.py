@@ -1,0 +1,540 @@
+"""The 6-UPS strut hexapod: six legs that change length between joints on the base and the platform.
+
+Most telescope hexapods are of this kind (the Rubin Observatory's camera and M2 hexapods, the
+Stewart platform in the FAST feed cabin of Yin, Jiang, Chen, Yao, "Dynamic modeling of a
+cable-driven parallel robot with a Stewart platform for use in FAST"), often with flexures in
+place of the universal and spherical joints. The kinematics is the strut-length form of the
+6-PSS leg of Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope
+secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, eq. 2.
+
+Frames and units as everywhere in the library: B fixed, A moving, pose ``P = [dx, dy, dz, φ, θ,
+ψ]`` (mm, rad), ``T = Rz(ψ)·Ry(θ)·Rx(φ)``; lengths in mm.
+
+- Strut ``i`` joins ``base_i`` (in B) to ``platform_i`` (in A); its length is
+  ``l_i = |T·platform_i + d + v0 − base_i|``.
+- The actuator reading is ``q_i = l_i − lengths0_i``; by default ``lengths0_i`` is the zero-pose
+  length ``|platform_i + v0 − base_i|``, so every reading is 0 at the zero pose.
+- Calibration parameters (42): ``platform`` (18), ``base`` (18), ``lengths0`` (6), each joint
+  x, y, z, in that order. ``v0`` and the limits are not calibrated.
+
+Limits (optional, static metadata of the mechanism, not calibrated, not traced):
+
+- ``stroke_limits``: ``[min, max]`` of the reading (mm) per strut.
+- ``joint_angle_limit``: the largest angle (rad inside the library, degrees in files) a strut
+  may make with its zero-pose direction at either end: at the base end the strut direction is
+  compared in B, at the platform end in A (the platform joint turns with the platform).
+
+The reachability ``margin`` of strut ``i`` is in mm: the smallest of ``q − min``, ``max − q``
+and ``l·(θ_max − θ)`` (the joint-angle margin as the arc the strut's far end may still sweep),
+over the limits that are set; with no limit set it is the strut length ``l`` (always ≥ 0, a
+strut cannot be "too long" without a limit).
+
+``travel`` (optional, static): the mechanism's published travel ``(x, y, z, tilt, rz)``: the
+largest ``|dx|``, ``|dy|``, ``|dz|`` (mm), ``|φ|`` and ``|θ|`` (rad, each) and ``|ψ|`` (rad).
+It describes the presets and is written to geometry files under the key ``"travel"`` (an
+extension of the geometry file: ``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``); the
+kinematics does not use it. A published travel is per axis: a pose at several axes' extremes
+at once may exceed a stroke limit.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from .._math import rotation_matrix
+from ._abstract import AbstractMechanism, IKSolution
+from ._registry import register_family, register_preset
+
+N_LEGS = 6
+N_PARAMS_UPS = 42
+
+_TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg")
+
+
+@register_family
+class UPSMechanism(AbstractMechanism):
+    """A 6-UPS strut hexapod (mm); see the module docstring for the model.
+
+    A pytree: batch it (``jax.vmap`` over a leading axis of every array leaf) to evaluate many
+    parameter sets at once. The limits and the travel are static metadata (hashable tuples),
+    shared by every member of a batch.
+
+    **Fields:**
+
+    - ``base``: ``Float[Array, "6 3"]``, fixed-side joint centres in B.
+    - ``platform``: ``Float[Array, "6 3"]``, moving-side joint centres in A.
+    - ``v0``: ``Float[Array, "3"]``, A's origin (the pivot whose pose is commanded) in B at the
+      zero pose.
+    - ``lengths0``: ``Float[Array, "6"]``, strut lengths at zero reading; default
+      ``|platform_i + v0 − base_i|``.
+    - ``stroke_limits``: ``None`` or six ``(min, max)`` reading pairs (mm); the constructor
+      also takes one pair for all struts.
+    - ``joint_angle_limit``: ``None`` or six angles (rad, each in (0, π/2)); the constructor
+      also takes one number.
+    - ``travel``: ``None`` or ``(x_mm, y_mm, z_mm, tilt_rad, rz_rad)``, the published travel.
+    """
+
+    family: ClassVar[str] = "6-UPS"
+
+    base: Float[Array, "6 3"]
+    platform: Float[Array, "6 3"]
+    v0: Float[Array, "3"]
+    lengths0: Float[Array, "6"]
+    stroke_limits: tuple[tuple[float, float], ...] | None = eqx.field(static=True)
+    joint_angle_limit: tuple[float, ...] | None = eqx.field(static=True)
+    travel: tuple[float, float, float, float, float] | None = eqx.field(static=True)
+
+    def __init__(
+        self,
+        base: ArrayLike,
+        platform: ArrayLike,
+        v0: ArrayLike = (0.0, 0.0, 0.0),
+        lengths0: ArrayLike | None = None,
+        *,
+        stroke_limits: ArrayLike | None = None,
+        joint_angle_limit: ArrayLike | None = None,
+        travel: ArrayLike | None = None,
+    ):
+        self.base = _as_float64(base, "base", (N_LEGS, 3))
+        self.platform = _as_float64(platform, "platform", (N_LEGS, 3))
+        self.v0 = _as_float64(v0, "v0", (3,))
+        if lengths0 is None:
+            lengths0 = _norm(self.platform + self.v0 - self.base)
+        self.lengths0 = _as_float64(lengths0, "lengths0", (N_LEGS,))
+        self.stroke_limits = _stroke_limits(stroke_limits)
+        self.joint_angle_limit = _angle_limit(joint_angle_limit)
+        self.travel = _travel(travel)
+
+    # ---- parameters -------------------------------------------------------------------------
+
+    @property
+    def params(self) -> Float[Array, "42"]:
+        """The 42 calibration parameters: ``platform`` (18), ``base`` (18), ``lengths0`` (6)."""
+        batch = self.base.shape[:-2]
+        return jnp.concatenate(
+            [self.platform.reshape(*batch, 18), self.base.reshape(*batch, 18), self.lengths0], axis=-1
+        )
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        joints = tuple(f"{side}{i}{c}" for side in ("platform", "base") for i in range(1, 7) for c in "xyz")
+        return joints + tuple(f"lengths0_{i}" for i in range(1, 7))
+
+    def with_params(self, params: Float[Array, "42"]) -> UPSMechanism:
+        """The same mechanism (v0, limits, travel kept) with the 42 parameters replaced; traceable."""
+        p = jnp.asarray(params, dtype=jnp.float64)
+        if p.shape[-1:] != (N_PARAMS_UPS,):
+            raise ValueError(f"6-UPS params must have a last axis of {N_PARAMS_UPS}, got shape {p.shape}")
+        batch = p.shape[:-1]
+        return UPSMechanism(
+            p[..., 18:36].reshape(*batch, N_LEGS, 3),
+            p[..., :18].reshape(*batch, N_LEGS, 3),
+            self.v0,
+            p[..., 36:],
+            stroke_limits=self.stroke_limits,
+            joint_angle_limit=self.joint_angle_limit,
+            travel=self.travel,
+        )
+
+    @property
+    def travel_half_widths(self) -> np.ndarray | None:
+        """The travel as pose half-widths ``[x, y, z, tilt, tilt, rz]`` (mm, rad), or ``None``."""
+        if self.travel is None:
+            return None
+        x, y, z, tilt, rz = self.travel
+        return np.array([x, y, z, tilt, tilt, rz])
+
+    # ---- kinematics -------------------------------------------------------------------------
+
+    def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
+        """``T·platform_i + d + v0``: the moving joint centres in B (mm)."""
+        rot = rotation_matrix(poses[..., 3:])
+        return jnp.einsum("...jk,ik->...ij", rot, self.platform) + poses[..., None, :3] + self.v0
+
+    def strut_lengths(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6"]:
+        """Strut lengths ``l_i = lengths0_i + q_i`` (mm) at ``poses``."""
+        return self.lengths0 + _ik_parts(self, poses).strokes
+
+    def solve_inverse_kinematics(self, poses: Float[Array, "... 6"]) -> IKSolution:
+        """Readings ``q_i = l_i − lengths0_i`` (mm), the margin (mm) and reachability; pure and
+        jittable, any leading batch shape of ``poses``.
+
+        NOTE: the reading is evaluated cancellation-free. With ``e_i = platform_i + v0 − base_i``
+        the zero-pose strut and ``δ_i = (T − I)·platform_i + d`` the moving joint's displacement
+        (``T − I`` built with ``1 − cos x = 2 sin²(x/2)`` on its diagonal), the strut is
+        ``s = e + δ`` and ``l² − |e|² = δ·(2e + δ)``, so
+        ``q = δ·(2e + δ) / (l + |e|) + (|e| − lengths0)``. A reading of a few mm on a 1–3 m strut
+        then keeps full relative precision instead of being the difference of two metre-scale
+        numbers, and is exactly 0 at the zero pose when ``lengths0`` is the default.
+        """
+        parts = _ik_parts(self, poses)
+        margin = _margin(self, poses, parts)
+        return IKSolution(parts.strokes, margin, jnp.all(margin >= 0.0, axis=-1))
+
+    def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
+        """Readings, margins (``(..., 6)``) and the analytic pose Jacobian ``∂q_i/∂P_k``
+        (``(..., 6, 6)``): row ``i`` is ``u_iᵀ [I | ∂(T·p_i)/∂φ, ∂(T·p_i)/∂θ, ∂(T·p_i)/∂ψ]`` with
+        ``u_i`` the unit strut vector and ``∂(T·p)/∂φ = T·(e_x × p)``,
+        ``∂(T·p)/∂θ = (Rz(ψ)·e_y) × T·p``, ``∂(T·p)/∂ψ = e_z × T·p``."""
+        parts = _ik_parts(self, poses)
+        margin = _margin(self, poses, parts)
+        u = parts.unit
+        tp = parts.tp
+        ex_p = jnp.stack(
+            [jnp.zeros_like(self.platform[:, 0]), -self.platform[:, 2], self.platform[:, 1]], axis=-1
+        )  # e_x × p
+        d_phi = jnp.einsum("...jk,ik->...ij", parts.rot, ex_p)
+        psi = poses[..., 5:6]
+        axis_theta = jnp.concatenate([-jnp.sin(psi), jnp.cos(psi), jnp.zeros_like(psi)], axis=-1)
+        d_theta = jnp.cross(jnp.broadcast_to(axis_theta[..., None, :], tp.shape), tp)
+        d_psi = jnp.stack([-tp[..., 1], tp[..., 0], jnp.zeros_like(tp[..., 0])], axis=-1)
+        jac = jnp.concatenate(
+            [
+                u,
+                jnp.sum(u * d_phi, axis=-1, keepdims=True),
+                jnp.sum(u * d_theta, axis=-1, keepdims=True),
+                jnp.sum(u * d_psi, axis=-1, keepdims=True),
+            ],
+            axis=-1,
+        )
+        return parts.strokes, margin, jac
+
+    def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m 42"]:
+        """Analytic ``∂q/∂u`` (row ``6j + i`` is strut ``i`` at pose ``j``): ``u_iᵀ·T`` for
+        ``platform_i``, ``−u_iᵀ`` for ``base_i`` and ``−1`` for ``lengths0_i``."""
+        parts = _ik_parts(self, poses)
+        u = parts.unit  # (m, 6, 3)
+        m = u.shape[0]
+        d_platform = jnp.einsum("mij,mjk->mik", u, parts.rot)  # uᵀT, (m, 6, 3)
+        eye = jnp.eye(N_LEGS)
+        # block-diagonal in the strut: (m, 6 struts, 6 legs, 3)
+        jp = eye[None, :, :, None] * d_platform[:, :, None, :]
+        jb = -eye[None, :, :, None] * u[:, :, None, :]
+        jl = -jnp.broadcast_to(eye, (m, N_LEGS, N_LEGS))
+        return jnp.concatenate(
+            [jp.reshape(m * N_LEGS, 18), jb.reshape(m * N_LEGS, 18), jl.reshape(m * N_LEGS, N_LEGS)], axis=-1
+        )
+
+    # ---- files ------------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """The geometry file (JSON-ready): lengths in mm, the joint-angle limit and the travel's
+        angles in degrees; limits and travel only where set."""
+        d: dict[str, Any] = {
+            "mechanism": self.family,
+            "units": "mm",
+            "base": np.asarray(self.base).tolist(),
+            "platform": np.asarray(self.platform).tolist(),
+            "v0": np.asarray(self.v0).tolist(),
+            "lengths0": np.asarray(self.lengths0).tolist(),
+        }
+        if self.stroke_limits is not None:
+            pairs = [list(p) for p in self.stroke_limits]
+            d["stroke_limits"] = pairs[0] if all(p == pairs[0] for p in pairs) else pairs
+        if self.joint_angle_limit is not None:
+            deg = [float(np.rad2deg(a)) for a in self.joint_angle_limit]
+            d["joint_angle_limits"] = deg[0] if all(a == deg[0] for a in deg) else deg
+        if self.travel is not None:
+            x, y, z, tilt, rz = self.travel
+            d["travel"] = dict(zip(_TRAVEL_KEYS, (x, y, z, float(np.rad2deg(tilt)), float(np.rad2deg(rz))),
+                                   strict=True))
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> UPSMechanism:
+        """Inverse of :meth:`to_dict`. Required: ``base``, ``platform`` (6×3, mm); optional:
+        ``v0``, ``lengths0``, ``stroke_limits`` (one ``[min, max]`` pair or six, mm),
+        ``joint_angle_limits`` (degrees, one number or six, each in (0, 90)), ``travel``
+        (``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``), ``units`` (must be ``"mm"``)."""
+        family = d.get("mechanism", cls.family)
+        if family != cls.family:
+            raise ValueError(f"UPSMechanism.from_dict reads a {cls.family!r} file, this one is {family!r}")
+        units = d.get("units", "mm")
+        if units != "mm":
+            raise ValueError(f"6-UPS geometry lengths must be in mm, the file says units={units!r}")
+        missing = [k for k in ("base", "platform") if k not in d]
+        if missing:
+            raise ValueError(f"6-UPS geometry is missing {missing}: give 'base' and 'platform' (6x3, mm)")
+        angle = d.get("joint_angle_limits", d.get("joint_angle_limit"))
+        if angle is not None:
+            a = _finite(angle, "joint_angle_limits")
+            if a.shape not in ((), (N_LEGS,)):
+                raise ValueError(f"6-UPS joint_angle_limits must be one number or six (degrees), got shape {a.shape}")
+            if not np.all((a > 0) & (a < 90)):
+                raise ValueError(
+                    f"6-UPS joint_angle_limits must be in degrees, in (0, 90), got {a.tolist()}"
+                )
+            angle = np.deg2rad(a)
+        travel = d.get("travel")
+        if travel is not None:
+            if not isinstance(travel, dict) or set(travel) != set(_TRAVEL_KEYS):
+                raise ValueError(
+                    f"6-UPS travel must be an object with exactly the keys {list(_TRAVEL_KEYS)}, got {travel!r}"
+                )
+            t = _finite([travel[k] for k in _TRAVEL_KEYS], "travel")
+            travel = (*t[:3], *np.deg2rad(t[3:]))
+        return cls(
+            d["base"],
+            d["platform"],
+            d.get("v0", (0.0, 0.0, 0.0)),
+            d.get("lengths0"),
+            stroke_limits=d.get("stroke_limits"),
+            joint_angle_limit=angle,
+            travel=travel,
+        )
+
+
+class _IKParts(NamedTuple):
+    rot: Array  # T, (..., 3, 3)
+    tp: Array  # T·platform_i, (..., 6, 3)
+    strut: Array  # s = T·p + d + v0 − b, (..., 6, 3)
+    length: Array  # |s|, (..., 6)
+    unit: Array  # s/|s|, (..., 6, 3)
+    strokes: Array  # (..., 6)
+
+
+def _rotation_minus_identity(angles: Array) -> Array:
+    """``T − I`` without the cancellation of ``cos x − 1`` on the diagonal (versines)."""
+    rot = rotation_matrix(angles)
+    half = 0.5 * angles
+    vf, vt, vp = (2.0 * jnp.sin(half[..., k]) ** 2 for k in range(3))  # 1 − cos
+    sf, st, sp = (jnp.sin(angles[..., k]) for k in range(3))
+    d00 = -(vp + vt - vp * vt)
+    d11 = sp * st * sf - (vp + vf - vp * vf)
+    d22 = -(vt + vf - vt * vf)
+    diag = jnp.stack([d00, d11, d22], axis=-1)
+    eye = jnp.eye(3, dtype=rot.dtype)
+    return rot * (1.0 - eye) + diag[..., None] * eye
+
+
+def _ik_parts(m: UPSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
+    rot = rotation_matrix(poses[..., 3:])
+    rm1 = _rotation_minus_identity(poses[..., 3:])
+    p = m.platform
+    tp = jnp.einsum("...jk,ik->...ij", rot, p)
+    delta = jnp.einsum("...jk,ik->...ij", rm1, p) + poses[..., None, :3]
+    e = p + m.v0 - m.base
+    e_len = _norm(e)
+    strut = e + delta
+    length = _norm(strut)
+    growth = jnp.sum(delta * (2.0 * e + delta), axis=-1)  # l² − |e|²
+    denom = length + e_len
+    strokes = jnp.where(denom > 0, growth / jnp.where(denom > 0, denom, 1.0), length - e_len) + (e_len - m.lengths0)
+    safe = jnp.where(length > 0, length, 1.0)
+    unit = strut / safe[..., None]
+    return _IKParts(rot, tp, strut, length, unit, strokes)
+
+
+def _margin(m: UPSMechanism, poses: Float[Array, "... 6"], parts: _IKParts) -> Array:
+    margins = []
+    if m.stroke_limits is not None:
+        lim = jnp.asarray(m.stroke_limits)
+        margins += [parts.strokes - lim[:, 0], lim[:, 1] - parts.strokes]
+    if m.joint_angle_limit is not None:
+        e = m.platform + m.v0 - m.base  # zero-pose strut direction, in B and in A
+        s_in_a = jnp.einsum("...kj,...ik->...ij", parts.rot, parts.strut)  # Tᵀ·s
+        theta = jnp.maximum(_angle(parts.strut, e), _angle(s_in_a, e))
+        margins.append(parts.length * (jnp.asarray(m.joint_angle_limit) - theta))
+    if not margins:
+        return parts.length
+    out = margins[0]
+    for x in margins[1:]:
+        out = jnp.minimum(out, x)
+    return out
+
+
+def _angle(a: Array, b: Array) -> Array:
+    """Angle between vectors (rad), accurate near 0: ``atan2(|a × b|, a·b)``."""
+    b = jnp.broadcast_to(b, a.shape)
+    return jnp.arctan2(_norm(jnp.cross(a, b)), jnp.sum(a * b, axis=-1))
+
+
+def _norm(x: Array) -> Array:
+    return jnp.sqrt(jnp.sum(x * x, axis=-1))
+
+
+# ---- validation -------------------------------------------------------------------------------
+
+
+def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
+    if isinstance(x, jax.core.Tracer):
+        return x  # traced (jit/vmap): validated where the concrete value was built
+    a = np.asarray(x, dtype=np.float64)
+    if a.shape[a.ndim - len(shape):] != shape:
+        raise ValueError(f"UPSMechanism.{name} must have shape {shape} (mm), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
+    return jnp.asarray(a)
+
+
+def _finite(x: Any, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"UPSMechanism.{name} must be numbers, got {x!r}") from None
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
+    return a
+
+
+def _stroke_limits(x: Any) -> tuple[tuple[float, float], ...] | None:
+    if x is None:
+        return None
+    a = _finite(x, "stroke_limits")
+    if a.shape == (2,):
+        a = np.broadcast_to(a, (N_LEGS, 2))
+    if a.shape != (N_LEGS, 2):
+        raise ValueError(f"UPSMechanism.stroke_limits must be one [min, max] pair or six (mm), got shape {a.shape}")
+    if not np.all(a[:, 0] < a[:, 1]):
+        raise ValueError(f"UPSMechanism.stroke_limits must be ordered [min, max] with min < max, got {a.tolist()}")
+    return tuple((float(lo), float(hi)) for lo, hi in a)
+
+
+def _angle_limit(x: Any) -> tuple[float, ...] | None:
+    if x is None:
+        return None
+    a = _finite(x, "joint_angle_limit")
+    if a.shape == ():
+        a = np.full(N_LEGS, float(a))
+    if a.shape != (N_LEGS,):
+        raise ValueError(f"UPSMechanism.joint_angle_limit must be one angle or six (rad), got shape {a.shape}")
+    if not np.all((a > 0) & (a < np.pi / 2)):
+        raise ValueError(
+            f"UPSMechanism.joint_angle_limit must be in (0, π/2) rad (radians inside the library; "
+            f"files give degrees), got {a.tolist()}"
+        )
+    return tuple(float(v) for v in a)
+
+
+def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
+    if x is None:
+        return None
+    a = _finite(x, "travel")
+    if a.shape != (5,) or not np.all(a > 0):
+        raise ValueError(
+            f"UPSMechanism.travel must be five positive numbers (x, y, z in mm, tilt, rz in rad), got {a.tolist()}"
+        )
+    if a[3] > 0.5 or a[4] > 0.5:
+        raise ValueError(f"UPSMechanism.travel angles are radians; {a[3:].tolist()} looks like degrees")
+    return tuple(float(v) for v in a)  # type: ignore[return-value]
+
+
+# ---- presets ----------------------------------------------------------------------------------
+
+# Strut-end coordinates published with the Rubin Observatory's hexapod control software (µm there,
+# mm here). The moving ends turn about the pivot; platform = moving − pivot, base = fixed,
+# v0 = pivot.
+_RUBIN_CAMERA_MOVING = np.array(
+    [
+        [227600, 653800, -525000],
+        [-227600, 653800, -525000],
+        [-680000, -129700, -525000],
+        [-452300, -524000, -525000],
+        [452300, -524000, -525000],
+        [680000, -129700, -525000],
+    ],
+    dtype=np.float64,
+) / 1000.0
+_RUBIN_CAMERA_FIXED = np.array(
+    [
+        [472800, 512200, -121400],
+        [-472800, 512200, -121400],
+        [-680000, 153300, -121400],
+        [-207200, -665500, -121400],
+        [207200, -665500, -121400],
+        [680000, 153300, -121400],
+    ],
+    dtype=np.float64,
+) / 1000.0
+_RUBIN_CAMERA_PIVOT = np.array([0.0, 0.0, -2758400.0]) / 1000.0
+
+_RUBIN_M2_MOVING = np.array(
+    [
+        [0, 1701800, 114300],
+        [-1542350, -719210, 114300],
+        [1542350, -719210, 114300],
+        [790, 1460490, 228600],
+        [-1503370, 7660, 228600],
+        [1503370, 7660, 228600],
+    ],
+    dtype=np.float64,
+) / 1000.0
+_RUBIN_M2_FIXED = np.array(
+    [
+        [0, 1701800, 607300],
+        [-1542350, -719210, 607300],
+        [1542350, -719210, 607300],
+        [493790, 1460490, 228600],
+        [-1256870, -419290, 228600],
+        [1256870, -419290, 228600],
+    ],
+    dtype=np.float64,
+) / 1000.0
+_RUBIN_M2_PIVOT = np.array([0.0, 0.0, -703000.0]) / 1000.0
+
+
+@register_preset("rubin_camera")
+def rubin_camera() -> UPSMechanism:
+    """The Rubin Observatory camera hexapod (published strut ends, µm → mm): readings ±14.1 mm;
+    travel |x|, |y| ≤ 11.4 mm, |z| ≤ 13.1 mm, tilts ≤ 0.36°, rotation about z ≤ 0.10°."""
+    return UPSMechanism(
+        _RUBIN_CAMERA_FIXED,
+        _RUBIN_CAMERA_MOVING - _RUBIN_CAMERA_PIVOT,
+        _RUBIN_CAMERA_PIVOT,
+        stroke_limits=(-14.1, 14.1),
+        travel=(11.4, 11.4, 13.1, float(np.deg2rad(0.36)), float(np.deg2rad(0.10))),
+    )
+
+
+@register_preset("rubin_m2")
+def rubin_m2() -> UPSMechanism:
+    """The Rubin Observatory M2 hexapod (three axial and three lateral struts; published strut
+    ends, µm → mm): travel |x|, |y| ≤ 10.5 mm, |z| ≤ 8.9 mm, tilts ≤ 0.175°, z rotation ≤ 0.05°.
+    No stroke limits are published with the coordinates; none are set."""
+    return UPSMechanism(
+        _RUBIN_M2_FIXED,
+        _RUBIN_M2_MOVING - _RUBIN_M2_PIVOT,
+        _RUBIN_M2_PIVOT,
+        travel=(10.5, 10.5, 8.9, float(np.deg2rad(0.175)), float(np.deg2rad(0.05))),
+    )
+
+
+def _joint_circle(radius: float, short_edge: float, centres_deg: tuple[float, ...], first_low: bool) -> np.ndarray:
+    """Six joints on a circle in three pairs of chord ``short_edge`` about ``centres_deg`` (m);
+    the numbering of the FAST Stewart platform's joints (see :func:`fast_stewart`)."""
+    alpha = np.arcsin(short_edge / (2.0 * radius))
+    c = np.deg2rad(np.asarray(centres_deg))
+    if first_low:
+        ang = np.array([c[0] - alpha, c[0] + alpha, c[1] - alpha, c[1] + alpha, c[2] - alpha, c[2] + alpha])
+    else:
+        ang = np.array([c[0] + alpha, c[1] - alpha, c[1] + alpha, c[2] - alpha, c[2] + alpha, c[0] - alpha])
+    return np.stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(6)], axis=-1)
+
+
+FAST_STEWART_TRAVEL = (10.0, 10.0, 10.0, float(np.deg2rad(1.0)), float(np.deg2rad(1.0)))
+"""The ``fast_stewart`` preset's travel (our choice; Yin et al. give none): ±10 mm on each axis,
+the 0.01 m amplitude of the lower platform's motion in their simulation, and ±1° on each angle,
+the angular travel the library uses for the 2018 calibration study."""
+
+
+@register_preset("fast_stewart")
+def fast_stewart() -> UPSMechanism:
+    """The Stewart platform in the FAST feed cabin (Yin, Jiang, Chen, Yao, Table 1) as a 6-UPS
+    in mm: base = the upper platform B fixed to the cabin, joints on ``r_B = 2.0 m`` in pairs
+    ``(B6, B1), (B2, B3), (B4, B5)`` of chord 0.349 m centred at 30°, 150°, 270°; platform = the
+    lower platform P, joints on ``r_P = 0.98 m`` in pairs ``(P1, P2), (P3, P4), (P5, P6)`` of
+    chord 0.256 m centred at 90°, 210°, 330° (the layout the cable-robot model uses); v0 = P's
+    origin in B, ``(0, 0, h)`` with ``h = −1.7 m``. Struts ≈ 2.0 m. Travel:
+    :data:`FAST_STEWART_TRAVEL`. No limits are given in the paper; none are set."""
+    return UPSMechanism(
+        _joint_circle(2.0, 0.349, (30.0, 150.0, 270.0), first_low=False) * 1e3,
+        _joint_circle(0.98, 0.256, (90.0, 210.0, 330.0), first_low=True) * 1e3,
+        (0.0, 0.0, -1700.0),
+        travel=FAST_STEWART_TRAVEL,
+    )
