@@ -1,4 +1,4 @@
-"""Recovery-rate benchmark of the model-discrepancy workflow (SPEC §7, 6-PSS model).
+"""Recovery-rate benchmark of the model-discrepancy workflow (6-PSS model; `docs/discrepancy.md`).
 
 For every candidate effect × magnitude × seed, simulate measured data with that effect hidden
 (``stewart_jax.discrepancy.simulate_hidden_effect``: the 120-pose plan + 60 random poses,

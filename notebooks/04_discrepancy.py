@@ -12,7 +12,7 @@
 # ---
 
 # %% [markdown]
-# # 4. Model discrepancy: find the effect the 36-parameter model is missing (SPEC §7)
+# # 4. Model discrepancy: find the effect the 36-parameter model is missing
 #
 # A simulated measurement run of a mechanism with a **hidden** effect — here backlash: the
 # reading depends on the direction each slider approached from. The 36-parameter model cannot

@@ -126,7 +126,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         options = {m: {"max_evaluations": args.max_evaluations} for m in methods
                    if METHOD_REGISTRY[m].kind != "least_squares"}
     print(
-        f"seed-000 simulation study: plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
+        f"Table 2 simulation study (Wang et al. 2018): plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
         f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
         file=sys.stderr,
     )
@@ -172,8 +172,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("simulate", help="write simulated measured data (seed 000 study) as CSV")
-    p.add_argument("--out", required=True, help="output CSV (SPEC §6 columns, plus target_* and true_*)")
+    p = sub.add_parser("simulate", help="write simulated measured data (the Table 2 study of Wang et al. 2018) as CSV")
+    p.add_argument("--out", required=True, help="output CSV (q1..q6, x..rz; plus target_* and true_*)")
     p.add_argument("--plan", choices=("paper8", "plan120", "validation42"), default="paper8")
     p.add_argument("--seed", type=int, default=0)
     _noise_args(p)
@@ -184,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("calibrate", help="calibrate the 36 parameters from a measured CSV")
-    p.add_argument("file", help="measured data CSV (SPEC §6)")
+    p.add_argument("file", help="measured data CSV (q1..q6, x, y, z, rx, ry, rz)")
     p.add_argument("--method", choices=tuple(METHOD_REGISTRY), default="lm")
     p.add_argument("--seed", type=int, default=0, help="PRNG seed of the stochastic methods")
     _noise_args(p)
@@ -197,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="OUT.png", help="stroke residuals before/after calibration")
     p.set_defaults(func=_cmd_calibrate)
 
-    p = sub.add_parser("study", help="the seed-000 simulation study (Table 2) over many seeds")
+    p = sub.add_parser("study", help="the Table 2 simulation study of Wang et al. (2018) over many seeds")
     p.add_argument("--methods", default="lm", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
     p.add_argument("--trials", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)

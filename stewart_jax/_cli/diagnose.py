@@ -1,4 +1,4 @@
-"""``stewart-jax diagnose`` (SPEC §6–7) and ``stewart-jax simulate-effect``."""
+"""``stewart-jax diagnose``  and ``stewart-jax simulate-effect``."""
 
 from __future__ import annotations
 
@@ -86,8 +86,8 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show (SPEC §7)")
-    p.add_argument("file", help="measured data CSV (SPEC §6; dir1..dir6, temperature, time optional)")
+    p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
+    p.add_argument("file", help="measured data CSV (dir1..dir6, temperature, time optional)")
     p.add_argument("--geometry", default="nominal", help="starting geometry: preset or JSON/TOML file")
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")

@@ -1,4 +1,4 @@
-"""Measured calibration data as CSV (SPEC §6).
+"""Measured calibration data as CSV (the columns of ``docs/conventions.md``).
 
 One row per pose; header row; strokes ``q1``…``q6`` (mm), pose ``x, y, z`` (mm) and
 ``rx, ry, rz`` (degrees); optional ``dir1``…``dir6`` (±1), ``temperature`` (°C), ``time`` (s);
@@ -31,7 +31,7 @@ def write_csv(
     data: CalibrationData,
     extra: Mapping[str, np.ndarray] | None = None,
 ) -> None:
-    """Write ``data`` (mm, rad inside) as SPEC §6 CSV (mm, degrees). ``extra`` adds columns
+    """Write ``data`` (mm, rad inside) as measurement CSV (``docs/conventions.md``) (mm, degrees). ``extra`` adds columns
     (e.g. the true poses of a simulation), each an array of length m or shape (m, k) with
     names given as ``name`` or a tuple of k names via a mapping key ``"a,b,c"``."""
     q = np.asarray(data.strokes, dtype=np.float64)
@@ -115,7 +115,7 @@ def read_csv_columns(
 
 
 def read_csv(path: str | os.PathLike[str]) -> CalibrationData:
-    """Read SPEC §6 CSV into :class:`CalibrationData` (mm, radians).
+    """Read measurement CSV (``docs/conventions.md``) into :class:`CalibrationData` (mm, radians).
 
     Raises ``ValueError`` naming the problem: a missing column, a NaN, an angle beyond
     ±10° in a degree column, a direction other than ±1.

@@ -1,4 +1,4 @@
-"""The FAST feed-support dynamics (seed 002, :mod:`stewart_jax.fast`) as a discrepancy model.
+"""The FAST feed-support dynamics (Yin et al., "Dynamic modeling of a cable-driven parallel robot with a Stewart platform for use in FAST"; :mod:`stewart_jax.cable_robot`) as a discrepancy model.
 
 **Rows** are time samples of the §6 scenario (the lower platform moves
 ``B x_P(t) = (A sin 2πft, 0, 0)`` relative to the cabin, A = 10 mm, f = 5 Hz). **Observations**
@@ -11,7 +11,7 @@ Gaussian with σ per coordinate (:func:`fast_model`, default 10 µm).
 The effects (registered under ``"fast"``; ``theta = 0`` is the cabin held still):
 
 - ``cabin_coupling`` (1 parameter κ, dimensionless): the cabin moves in reaction to the
-  platform (the coupled simulation of :mod:`stewart_jax.fast`); κ scales the nominal coupled
+  platform (the coupled simulation of :mod:`stewart_jax.cable_robot`); κ scales the nominal coupled
   response (κ = 1: the paper's masses and inertias).
 - ``cable_elasticity`` (3 parameters, mm/s): the cabin swings freely on its elastic cables — the
   response of the cabin, platform held still, to an initial velocity ``v`` of the cabin in G
@@ -116,7 +116,7 @@ def fast_responses(
     the §6 scenario with the momentum start, and three free swings of the cabin (platform
     held still) from an initial velocity of :data:`KICK_MM_S` along G's x, y, z.
 
-    ``params`` default to :func:`~stewart_jax.fast.paper_fast_params`; ``position`` is
+    ``params`` default to :func:`~stewart_jax.cable_robot.paper_fast_params`; ``position`` is
     ``G t_C(0)`` (m); ``amplitude`` (m) and ``frequency`` (Hz) of the platform's motion;
     ``duration`` and ``dt`` in s (velocity Verlet). Compiles in ~15–25 s on 2 CPU cores.
     """
@@ -253,7 +253,7 @@ def fast_model(responses: FastResponses, sigma_um: float = 10.0) -> FastModel:
 @register_effect(MODEL_NAME, "cabin_coupling", n_params=1, scale=1.0, unit="× nominal")
 def cabin_coupling(theta: Float[Array, "1"], data: FastData, state: FastState) -> FastState:
     """The cabin is not held still: it recoils and pitches in reaction to the platform's
-    motion (cables, legs and platform coupled, :func:`stewart_jax.fast.simulate`). The extra
+    motion (cables, legs and platform coupled, :func:`stewart_jax.cable_robot.simulate`). The extra
     displacement is κ × the coupled simulation's extra error (κ = 1: the paper's masses; κ
     scales the moving-to-total mass ratio, to first order)."""
     return state._replace(displacement=state.displacement + theta[0] * state.coupled)

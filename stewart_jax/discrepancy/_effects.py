@@ -1,4 +1,4 @@
-"""The candidate effects of SPEC §7 for the 6-PSS model.
+"""The candidate effects (``docs/discrepancy.md``) for the 6-PSS model.
 
 Each is the physics of the *true* mechanism written as a change of the model's
 :class:`~stewart_jax.discrepancy._pss.PSSState`; ``theta = 0`` is the 36-parameter model.
@@ -104,7 +104,7 @@ def drift(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> P
 )
 def tracker_misalignment(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
     """The instrument frame M is rotated by ``R(ρ)`` (``ρ = theta[:3]``, rad, the Euler
-    convention of SPEC §1) and shifted by ``τ = theta[3:]`` (mm) relative to B: a point is
+    convention of Wang et al. 2018, eq. 1) and shifted by ``τ = theta[3:]`` (mm) relative to B: a point is
     ``x_B = R(ρ)·x_M + τ``. The measured pose is the platform pose in M, so the true pose is
     ``R = R(ρ)·R'``, ``d + v0 = R(ρ)·(d' + v0) + τ``. Acts on the measurement only: for control
     the targets are already in B."""

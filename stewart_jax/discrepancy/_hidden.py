@@ -5,7 +5,7 @@ The true mechanism is simulated here *independently of the model code* (``_pss.p
 each effect written from the mechanism's side (reading → true stroke → pose → measured pose).
 Only the effects' typical scales are taken from the registry, to draw random parameters.
 
-Protocol: true poses = the 120-pose plan (SPEC §3) plus ``n_random`` uniform poses in the
+Protocol: true poses = the 120-pose plan of Wang et al. (2018), §4 plus ``n_random`` uniform poses in the
 travel, visited in random order every 20–40 s (``time``); each slider approaches from a random
 side (``dir``); the temperature is uniform in 20 ± 3 °C, independent of time and pose. The
 measured pose is the true pose seen by the (possibly misaligned) instrument plus Gaussian
@@ -45,7 +45,7 @@ EFFECT_NAMES = (
 
 
 def _rot(angles: np.ndarray) -> np.ndarray:
-    """``Rz(ψ)·Ry(θ)·Rx(φ)`` from the elementary rotations (SPEC §1), batched."""
+    """``Rz(ψ)·Ry(θ)·Rx(φ)`` from the elementary rotations (Wang et al. 2018, eq. 1), batched."""
     a = np.asarray(angles, dtype=float)
     f, t, p = a[..., 0], a[..., 1], a[..., 2]
     o, z = np.ones_like(f), np.zeros_like(f)
@@ -223,7 +223,7 @@ def simulate_hidden_effect(
     geometry: Geometry | None = None,
     noise: bool = True,
 ) -> HiddenEffectData:
-    """Measured data of a true mechanism (default: seed 000's actual geometry) with one hidden
+    """Measured data of a true mechanism (default: Wang et al.'s (2018) Table 1 actual geometry) with one hidden
     ``effect`` (``None`` for none) whose unabsorbable signature is ``magnitude`` × the noise.
     ``noise=False`` leaves the noise out of the measured poses (the effect is still scaled to
     the noise level σ)."""
@@ -265,7 +265,7 @@ def simulate_hidden_effect(
 
 
 def write_hidden_csv(path: str | os.PathLike[str], sim: HiddenEffectData) -> None:
-    """SPEC §6 CSV (with ``dir1..dir6``, ``temperature``, ``time``) plus ``true_*`` pose
+    """measurement CSV (``docs/conventions.md``) (with ``dir1..dir6``, ``temperature``, ``time``) plus ``true_*`` pose
     columns, readable by ``stewart-jax diagnose``."""
     p = np.array(sim.true_poses)
     p[:, 3:] = np.degrees(p[:, 3:])

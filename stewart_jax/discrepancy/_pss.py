@@ -1,7 +1,7 @@
-"""The 6-PSS calibration model (seed 000 §1; SPEC §2–3) as a discrepancy model.
+"""The 6-PSS calibration model (Wang et al. 2018, §1) as a discrepancy model.
 
 Observations are the encoder readings ``q'`` (6 per pose); the base parameters are the 36
-joint centres; the noise is on the measured pose (σ per translation and angle, SPEC §3) and
+joint centres; the noise is on the measured pose (σ per translation and angle) and
 reaches the readings through the kinematic Jacobian.
 """
 
@@ -59,7 +59,7 @@ def pss_strokes(
     NOTE: with ``e = Ac + v0 − Bc`` (zero-pose leg), ``δ = T·Ac − Ac + d`` and ``w = e + δ``,
     the quadratic ``q² − 2q(n·w) + |w|² − L² = 0`` has the root
     ``q = c / (n·w + sqrt((n·w)² − c))`` with ``c = 2e·δ + |δ|² − ΔL(2|e| + ΔL)``: no
-    cancellation, exactly 0 at the zero pose, and equal to seed 000 eq. 4 for ``n = e_z``,
+    cancellation, exactly 0 at the zero pose, and equal to Wang et al. (2018), eq. 4 for ``n = e_z``,
     ``ΔL = 0``.
     """
     rot = rotation_matrix(poses[:, 3:])

@@ -42,7 +42,7 @@ class Effect(eqx.Module):
 
     **Fields** (all static: an effect is a definition, not data):
 
-    - ``name``: the canonical name (SPEC §7 for the 6-PSS model).
+    - ``name``: the canonical name (for the 6-PSS model, those of ``docs/discrepancy.md``).
     - ``model``: the name of the model it extends.
     - ``n_params``: number of parameters ``k``.
     - ``apply``: ``(theta: Float[Array, "k"], data, state) -> state``; pure, jittable,

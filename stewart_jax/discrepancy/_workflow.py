@@ -1,4 +1,4 @@
-"""Detect, name, add, show: the model-discrepancy workflow (SPEC §7), for any
+"""Detect, name, add, show: the model-discrepancy workflow (``docs/discrepancy.md``), for any
 :class:`~stewart_jax.discrepancy._registry.AbstractDiscrepancyModel`.
 
 1. **Detect.** Fit the base model on a training part (weighted least squares with the model's

@@ -68,7 +68,7 @@ def _sincos_exact(x):
 
 
 def _rotation_rows(angles, sincos):
-    """The nine entries of ``T = Rz(ψ)·Ry(θ)·Rx(φ)`` (eq. 1, SPEC §1 sign), row-major."""
+    """The nine entries of ``T = Rz(ψ)·Ry(θ)·Rx(φ)`` (eq. 1, with the sign of its (2,2) element corrected), row-major."""
     sf, cf = sincos(angles[0])
     st, ct = sincos(angles[1])
     sp, cp = sincos(angles[2])

@@ -93,10 +93,10 @@ class CuckooSearch(AbstractPopulationSolver):
     """Cuckoo search (Yang & Deb 2009).
 
     - ``n_nests``: population size; 25, the value of Yang & Deb's paper and code.
-    - ``pa``: discovery probability; 0.25 (Yang & Deb; SPEC §4).
+    - ``pa``: discovery probability; 0.25 (Yang & Deb).
     - ``alpha``: Lévy step scale; 0.01 (Yang & Deb's code: "0.01 … to avoid the flights
       becoming too aggressive").
-    - ``beta``: Lévy exponent; 1.5 (Yang & Deb; seed 000 eq. 10).
+    - ``beta``: Lévy exponent; 1.5 (Yang & Deb; Wang et al. 2018, eq. 10).
     - ``epsilon``: stop when the best value falls below it; 0.0 by default (run the whole
       budget — a fixed-budget comparison is what the study needs; set it to the expected
       noise floor to stop early).

@@ -89,7 +89,7 @@ class PopulationState(NamedTuple):
     - ``fitness``: ``Float[Array, "n"]``, the objective at each nest (+inf for NaN).
     - ``best_x``, ``best_f``: the best point seen so far and its value.
     - ``n_evals``: objective calls so far.
-    - ``generation``: generations done (``t`` of seed 000 eq. 11).
+    - ``generation``: generations done (``t`` of Wang et al. 2018, eq. 11).
     """
 
     nests: Float[Array, "n d"]

@@ -2,7 +2,7 @@
 
 Mantegna R. N., "Fast, accurate algorithm for numerical simulation of Lévy stable stochastic
 processes", Phys. Rev. E 49(5) (1994) 4677–4683 — as used by Yang & Deb's cuckoo search and
-by seed 000 eq. 10 (Wang et al., Infrared and Laser Engineering 47(5), 2018).
+by Wang et al. (2018), eq. 10 ("Improved cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)).
 
 ``sp = u / |v|^(1/β)`` with ``u ~ N(0, σ_u²)``, ``v ~ N(0, 1)`` and
 
@@ -23,7 +23,7 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from ._random import draw
 
 BETA = 1.5
-"""The Lévy exponent of seed 000 (and of Yang & Deb 2009)."""
+"""The Lévy exponent of Wang et al. (2018) (and of Yang & Deb 2009)."""
 
 
 def mantegna_sigma(beta: float = BETA) -> float:
@@ -36,8 +36,8 @@ def mantegna_sigma(beta: float = BETA) -> float:
 
 
 def mantegna_step(key: PRNGKeyArray, shape: tuple[int, ...], beta: float = BETA) -> Float[Array, "..."]:
-    """Independent Lévy steps ``u / |v|^(1/β)`` of the given shape (seed 000 eq. 10), from the
-    optimisers' generator (:func:`stewart_jax._solver._random.draw`; float32)."""
+    """Independent Lévy steps ``u / |v|^(1/β)`` of the given shape (Wang et al. 2018, eq. 10), from the
+    optimisers' generator (:func:`stewart_jax.optimise.draw`; float32)."""
     rnd = draw(key, zu=("normal", shape), zv=("normal", shape))
     return mantegna_from_normals(rnd["zu"], rnd["zv"], beta)
 

@@ -6,7 +6,7 @@ Nelder J. A., Mead R., "A simplex method for function minimization", Computer Jo
 Optim. 9 (1998) 112–147. The population version updates several worst vertices at once,
 each against the centroid of the kept vertices, as in Lee D., Wiswall M., "A parallel
 implementation of the simplex function minimization routine", Computational Economics 30
-(2007) 171–187 — the form seed 000 §2.1/§2.3 step (4) needs (37 nests = a simplex in 36
+(2007) 171–187 — the form Wang et al. (2018) §2.1/§2.3 step (4) needs (37 nests = a simplex in 36
 dimensions; its 12 worst vertices are improved by reflection, expansion, contraction and
 shrink).
 
@@ -26,7 +26,7 @@ from ._driver import AbstractSolver, evaluate, nan_to_inf
 
 class SimplexCoefficients(eqx.Module):
     """Nelder–Mead coefficients; the standard values (Nelder & Mead 1965, Lagarias et al.
-    1998), which seed 000 does not restate.
+    1998), which Wang et al. (2018) do not restate.
 
     - ``reflection`` α = 1, ``expansion`` γ = 2, ``contraction`` ρ = 0.5, ``shrink`` σ = 0.5.
     """
@@ -63,8 +63,8 @@ def simplex_on_worst(
     - ``f_r ≥ f_w``: inside contraction ``c + ρ(x_w − c)``, kept if better than ``x_w``;
     - otherwise shrink towards the best nest, ``x_b + σ(x_w − x_b)``.
 
-    Without bounds the steps are unbounded (SMCS as seed 000 §2.1 describes it). With
-    ``lower``/``upper`` every trial point is clipped to Ω before it is evaluated (seed 000
+    Without bounds the steps are unbounded (SMCS as Wang et al. (2018) §2.1 describes it). With
+    ``lower``/``upper`` every trial point is clipped to Ω before it is evaluated (Wang et al. 2018,
     eq. 13, VSA-SMCS). Branch-free: every nest evaluates its reflection, one second point
     (expansion or a contraction) and its shrink point.
     """
@@ -132,7 +132,7 @@ class NelderMead(AbstractSolver):
 
     NOTE: ``optimistix.NelderMead`` (0.1.0) was the intended base, but its ``y0_simplex``
     option rejects any simplex in more than one dimension, and on the 36-parameter problem
-    of seed 000 it collapses to a degenerate simplex at S ≈ 0.04 mm² after ~2 800
+    of Wang et al. (2018) it collapses to a degenerate simplex at S ≈ 0.04 mm² after ~2 800
     evaluations, where scipy's Nelder–Mead and this one keep descending. So this is a
     small own implementation; what it adds over optimistix's is bounds, a box-scaled initial
     simplex, dimension-adaptive coefficients and an exact evaluation count.

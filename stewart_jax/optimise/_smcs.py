@@ -18,9 +18,9 @@ from ._simplex import SimplexCoefficients, simplex_on_worst
 
 
 class SMCS(AbstractPopulationSolver):
-    """Simplex-modified cuckoo search (seed 000 §2.1).
+    """Simplex-modified cuckoo search (Wang et al. 2018, §2.1).
 
-    - ``n_nests``: 37, the population of seed 000 §2.3 (a simplex in 36 dimensions), so that
+    - ``n_nests``: 37, the population of Wang et al. (2018) §2.3 (a simplex in 36 dimensions), so that
       SMCS and VSA-SMCS compare at equal settings.
     - ``n_worst``: simplex operations per generation, one per worst nest; the paper does not
       say for SMCS: 12, the value it gives for VSA-SMCS, so that the comparison isolates the

@@ -1,13 +1,13 @@
 """VSA-SMCS: simplex cuckoo search with a variable-step adaptive path and bound limiting.
 
 Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope secondary
-mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018 (seed 000), §2.2–2.3:
+mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §2.2–2.3:
 
 - adaptive step, eq. 11: ``sp_t = sp·a + sp_min``, ``a = exp(−30·(t/T_max)^p)``,
   ``sp_min = sp_1·(1 − t/T_max)``, with ``sp`` a Mantegna Lévy step (eq. 10, :mod:`.levy`);
 - nest update, eq. 12: ``u ← u + d·sp_t ⊙ (u − u_best)``;
 - bound limiting, eq. 13: every simplex trial point is clipped to Ω (eq. 13 is a clip,
-  SPEC §4); the eq. 12 and abandonment trial points are clipped too, as in CS.
+  our reading); the eq. 12 and abandonment trial points are clipped too, as in CS.
 
 One generation is steps (2)–(5) of §2.3: (2) eq. 12 on every nest, greedy replacement;
 (3) each nest abandoned with probability ``lu`` for a point uniform in Ω, greedy;
@@ -32,7 +32,7 @@ def adaptive_step(sp, t, t_max, p: float, sp_1: float):
 
 
 class VSASMCS(AbstractPopulationSolver):
-    """VSA-SMCS (seed 000 §2.2–2.3).
+    """VSA-SMCS (Wang et al. 2018, §2.2–2.3).
 
     Paper values: ``n_nests`` = 37, ``n_worst`` = 12, ``beta`` = 1.5; the constant 30 of
     eq. 11. The paper gives no value for the others; choices:
@@ -40,11 +40,11 @@ class VSASMCS(AbstractPopulationSolver):
     - ``d`` (path coefficient of eq. 12): 1.0. Eq. 12 has no ``α·N(0, 1)`` factor (CS has
       ``0.01·N(0, 1)``): with ``d = 1`` the random part of a move is a Lévy multiple of the
       nest's distance to the best, so the population's own spread sets the scale. On the
-      seed-000 problem (20 000 evaluations, 4 seeds) d ∈ {−1, 0.5, 1, 2} gave the same S
+      Table 2 problem (20 000 evaluations, 4 seeds) d ∈ {−1, 0.5, 1, 2} gave the same S
       within the seed-to-seed spread (1–5e-6 mm²): only the order of magnitude matters.
     - ``sp_1`` (minimum-step gradient of eq. 11): 0.1. The deterministic part of the step starts at a
       tenth of the nest-to-best distance and falls linearly to 0; it is what remains once
-      ``a`` has died out. 0, 0.1 and 0.5 gave similar S on the seed-000 problem.
+      ``a`` has died out. 0, 0.1 and 0.5 gave similar S on the Table 2 problem.
     - ``p`` (eq. 11, the paper's range [1, 30]): 10. ``a = exp(−30·(t/T_max)^p)`` keeps the Lévy part above half its
       scale until ``t/T_max ≈ 0.69`` and kills it by 0.85; with ``p = 1`` it is gone after a
       tenth of the run (``a(0.1) = e^−3``), which was up to 10× worse at 20 000 evaluations;
