@@ -14,9 +14,21 @@ import stewart_jax as sj
 from stewart_jax.mechanism import AbstractMechanism, families, preset, presets
 
 
-def travel(seed: int, n: int) -> np.ndarray:
+def travel(seed: int, n: int, m: AbstractMechanism | None = None) -> np.ndarray:
+    """``n`` reachable poses uniform in ``m``'s travel (default ±1 mm, ±1°). Some travels are
+    not a box of reachable poses (the Rubin camera hexapod's corners exceed its strut
+    limits): unreachable draws are dropped."""
     rng = np.random.default_rng(seed)
-    return np.concatenate([rng.uniform(-1, 1, (n, 3)), np.deg2rad(rng.uniform(-1, 1, (n, 3)))], axis=1)
+    half = np.array([1.0, 1.0, 1.0] + [np.deg2rad(1.0)] * 3)
+    if m is not None and m.travel_half_widths is not None:
+        half = np.asarray(m.travel_half_widths)
+    if m is None:
+        return rng.uniform(-half, half, (n, 6))
+    out = np.zeros((0, 6))
+    while len(out) < n:
+        p = rng.uniform(-half, half, (8 * n, 6))
+        out = np.concatenate([out, p[np.asarray(m.solve_inverse_kinematics(jnp.asarray(p)).reachable)]])
+    return out[:n]
 
 
 PRESETS = presets()
@@ -46,7 +58,7 @@ def test_params_round_trip_and_file_round_trip(name, tmp_path):
 @pytest.mark.parametrize("name", PRESETS)
 def test_pose_jacobian_matches_autodiff_default(name):
     m = preset(name)
-    poses = jnp.asarray(travel(1, 5))
+    poses = jnp.asarray(travel(1, 5, m))
     _, _, jac = m.ik_and_jacobian(poses)
     _, _, ad = AbstractMechanism.ik_and_jacobian(m, poses)  # the abstraction's forward-mode default
     np.testing.assert_allclose(jac, ad, rtol=0, atol=1e-11)
@@ -55,7 +67,7 @@ def test_pose_jacobian_matches_autodiff_default(name):
 @pytest.mark.parametrize("name", PRESETS)
 def test_parameter_jacobian_matches_central_differences(name):
     m = preset(name)
-    poses = jnp.asarray(travel(2, 3))
+    poses = jnp.asarray(travel(2, 3, m))
     jac = np.asarray(m.parameter_jacobian(poses))
     u, h = np.asarray(m.params), 1e-4
     fd = np.stack([
@@ -72,7 +84,7 @@ def test_parameter_jacobian_matches_central_differences(name):
 @pytest.mark.parametrize("name", PRESETS)
 def test_forward_kinematics_inverts_inverse_kinematics(name):
     m = preset(name)
-    poses = travel(3, 16)
+    poses = travel(3, 16, m)
     fk = sj.forward_kinematics(m, sj.inverse_kinematics(m, poses))
     assert bool(np.all(fk.converged))
     np.testing.assert_allclose(fk.poses[:, :3], poses[:, :3], rtol=0, atol=1e-10)
@@ -84,7 +96,7 @@ def test_vmap_over_mechanisms_matches_a_loop(name):
     m = preset(name)
     rng = np.random.default_rng(4)
     us = np.asarray(m.params) + rng.normal(0, 0.1, (4, m.n_params))
-    poses = jnp.asarray(travel(5, 6))
+    poses = jnp.asarray(travel(5, 6, m))
     batched = jax.vmap(lambda u: m.with_params(u).solve_inverse_kinematics(poses).strokes)(jnp.asarray(us))
     for u, b in zip(us, batched, strict=True):
         np.testing.assert_array_equal(m.with_params(jnp.asarray(u)).solve_inverse_kinematics(poses).strokes, b)

@@ -8,10 +8,10 @@ import sys
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from ..mechanism._registry import load_mechanism
     from ..calibration._csv import read_csv
     from ..discrepancy._pss import pss_model
     from ..discrepancy._workflow import diagnose
+    from ..mechanism._registry import load_mechanism
 
     data = read_csv(args.file)
     model = pss_model(load_mechanism(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)

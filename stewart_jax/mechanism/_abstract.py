@@ -83,6 +83,12 @@ class AbstractMechanism(eqx.Module):
     def n_params(self) -> int:
         return int(self.params.shape[-1])
 
+    @property
+    def travel_half_widths(self) -> np.ndarray | None:
+        """The mechanism's travel as pose half-widths ``[x, y, z, φ, θ, ψ]`` (mm, rad), or
+        ``None`` where it is not known. Simulation and pose plans stay inside it."""
+        return None
+
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm)."""
         raise NotImplementedError(f"{type(self).__name__} does not expose its moving joints")

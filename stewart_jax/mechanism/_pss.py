@@ -77,6 +77,11 @@ class PSSMechanism(AbstractMechanism):
         """Build a geometry from the 36-vector of :attr:`params`."""
         return geometry_from_params(params, v0)
 
+    @property
+    def travel_half_widths(self) -> np.ndarray:
+        """Wang et al. (2018) §4: ±1 mm and ±1° on every pose component."""
+        return np.array([1.0, 1.0, 1.0] + [float(np.deg2rad(1.0))] * 3)
+
     def with_params(self, params: Float[Array, "36"]) -> PSSMechanism:
         return geometry_from_params(params, self.v0)
 

@@ -1,0 +1,72 @@
+"""``stewart-jax study``: the Table 2 simulation study of Wang et al. (2018) over many seeds."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ..calibration._methods import METHOD_REGISTRY
+from ._common import file_backend, noise_args
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..study._study import format_study_table, run_study
+
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = sorted(set(methods) - set(METHOD_REGISTRY))
+    if unknown:
+        raise SystemExit(f"unknown method(s) {unknown}; choose from {tuple(METHOD_REGISTRY)}")
+    options = {}
+    if args.max_evaluations is not None:
+        options = {m: {"max_evaluations": args.max_evaluations} for m in methods
+                   if METHOD_REGISTRY[m].kind != "least_squares"}
+    print(
+        f"Table 2 simulation study (Wang et al. 2018): plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
+        f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
+        file=sys.stderr,
+    )
+    result = run_study(
+        methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
+        args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
+        n_devices=args.devices, first_trial=args.first_trial,
+    )
+    print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
+    print(format_study_table(result, "calibration"))
+    print("\nMax control error at 42 validation poses — median [90th percentile] over trials:\n")
+    print(format_study_table(result, "validation"))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(result, f, indent=2)
+    if args.plot:
+        file_backend()
+        from .. import plotting
+        from ..study._study import PAPER_TABLE2
+
+        rows = {k: r["calibration"] for k, r in result["rows"].items()}
+        paper = PAPER_TABLE2 if args.plan == "paper8" else None
+        plotting.show(plotting.plot_table_comparison(rows, paper=paper, title=f"{args.plan}, {args.trials} trials"),
+                      args.plot)
+    return 0
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser("study", help="the Table 2 simulation study of Wang et al. (2018) over many seeds")
+    p.add_argument("--methods", default="lm", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
+    p.add_argument("--trials", type=int, default=10)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--plan", choices=("paper8", "plan120"), default="paper8")
+    noise_args(p)
+    p.add_argument("--tracker", action="store_true")
+    p.add_argument("--half-width", type=float, default=10.0)
+    p.add_argument("--max-evaluations", type=int, help="evaluation budget of the metaheuristics")
+    p.add_argument("--chunk", type=int, help="trials per chunk (progress; checkpoint granularity)")
+    p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume")
+    p.add_argument("--devices", type=int, default=1,
+                   help="split each chunk's trials over this many local JAX devices")
+    p.add_argument("--first-trial", type=int, default=0,
+                   help="run trials first..first+trials-1 of the seed's sequence (one range per host)")
+    p.add_argument("--json", help="write the full result as JSON")
+    p.add_argument("--plot", metavar="OUT.png", help="max control error per method beside the paper's Table 2")
+    p.set_defaults(func=run)
+    return p
