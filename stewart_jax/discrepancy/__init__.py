@@ -1,31 +1,46 @@
-"""Model-discrepancy workflow (SPEC §7): detect where a calibrated model disagrees with the
-data, name the missing effect from a registry of candidates, add it, show the gap shrink.
+"""Model-discrepancy workflow: detect where a calibrated model disagrees with the data, name
+the missing effect from a registry of candidates, add it, show the gap shrink.
 
-The workflow is generic over :class:`AbstractDiscrepancyModel`; the 6-PSS calibration model
-(:class:`PSSModel`) and the seven SPEC §7 effects are registered under ``"6-pss"``.
+The workflow (:func:`diagnose`, :func:`diagnose_many`) is generic over
+:class:`AbstractDiscrepancyModel`. The 6-PSS calibration model of Wang et al. 2018, "Improved
+cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
+and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are registered under
+``"6-pss"``; :func:`effects_for` lists them and :func:`simulate_hidden_effect` hides any of
+them in simulated measurements.
+
+The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
+:func:`fast_model`, :func:`fast_responses`, :func:`simulate_fast_measurement`, effects under
+``"fast"``) is loaded on first access, so that importing this package does not load the
+cable-robot simulator.
 """
+
+from typing import Any
 
 from . import _effects as _effects  # registers the 6-PSS candidates
 from .._cli.diagnose import add_diagnose_parser as add_diagnose_parser
-from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
-from ._cable_robot import (
-    FastModel as FastModel,
-    fast_model as fast_model,
-    fast_responses as fast_responses,
-    simulate_fast_measurement as simulate_fast_measurement,
+from ..plotting._discrepancy import plot_residuals as plot_residuals
+from ._driver import (
+    MIN_DOF as MIN_DOF,
+    check_sizes as check_sizes,
+    diagnose as diagnose,
+    diagnose_many as diagnose_many,
+    select_effects as select_effects,
+    split_rows as split_rows,
 )
+from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
 from ._hidden import (
-    EFFECT_NAMES as EFFECT_NAMES,
     Conditions as Conditions,
     HiddenEffectData as HiddenEffectData,
     HiddenTruth as HiddenTruth,
+    hidden_pose_set as hidden_pose_set,
     random_conditions as random_conditions,
     simulate_hidden_effect as simulate_hidden_effect,
     true_control_error as true_control_error,
     write_hidden_csv as write_hidden_csv,
 )
-from ..plotting._discrepancy import plot_residuals as plot_residuals
 from ._pss import (
+    MODEL_NAME as PSS_MODEL_NAME,
     PSSModel as PSSModel,
     PSSState as PSSState,
     load_fitted_model as load_fitted_model,
@@ -36,19 +51,42 @@ from ._pss import (
 from ._registry import (
     AbstractDiscrepancyModel as AbstractDiscrepancyModel,
     Effect as Effect,
+    effect_names as effect_names,
     effects_for as effects_for,
     get_effect as get_effect,
     register_effect as register_effect,
 )
-from ._workflow import (
-    Absorption as Absorption,
+from ._report import (
     Candidate as Candidate,
     DiagnosisReport as DiagnosisReport,
     FittedModel as FittedModel,
-    absorption as absorption,
-    diagnose as diagnose,
-    diagnose_many as diagnose_many,
-    select_effects as select_effects,
-    split_rows as split_rows,
+    SkippedEffect as SkippedEffect,
+)
+from ._statistics import (
+    Bin as Bin,
+    FactorDependence as FactorDependence,
+    WhereAnalysis as WhereAnalysis,
+    WhereFlag as WhereFlag,
+    bic as bic,
+    chi2_sf as chi2_sf,
+    f_sf as f_sf,
+    heldout_chi2 as heldout_chi2,
+    nested_p as nested_p,
     where_analysis as where_analysis,
 )
+from ._subspace import Absorption as Absorption, absorption as absorption
+
+_CABLE_ROBOT = ("FastData", "FastModel", "FastResponses", "FastState", "fast_model", "fast_responses",
+                "simulate_fast_measurement")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _CABLE_ROBOT:
+        from . import _cable_robot
+
+        return getattr(_cable_robot, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_CABLE_ROBOT))

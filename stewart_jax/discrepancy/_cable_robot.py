@@ -1,6 +1,8 @@
-"""The FAST feed-support dynamics (seed 002, :mod:`stewart_jax.fast`) as a discrepancy model.
+"""The FAST feed-support dynamics (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST", received 2021; simulated by
+:mod:`stewart_jax.cable_robot`) as a discrepancy model.
 
-**Rows** are time samples of the §6 scenario (the lower platform moves
+**Rows** are time samples of the paper's §6 scenario (eq. 62: the lower platform moves
 ``B x_P(t) = (A sin 2πft, 0, 0)`` relative to the cabin, A = 10 mm, f = 5 Hz). **Observations**
 are the lower platform's position ``x, y, z`` in the ground frame G, relative to its nominal
 rest position, in **mm** (library units; residuals are reported in µm). The **base model**
@@ -11,7 +13,7 @@ Gaussian with σ per coordinate (:func:`fast_model`, default 10 µm).
 The effects (registered under ``"fast"``; ``theta = 0`` is the cabin held still):
 
 - ``cabin_coupling`` (1 parameter κ, dimensionless): the cabin moves in reaction to the
-  platform (the coupled simulation of :mod:`stewart_jax.fast`); κ scales the nominal coupled
+  platform (the coupled simulation of :mod:`stewart_jax.cable_robot`); κ scales the nominal coupled
   response (κ = 1: the paper's masses and inertias).
 - ``cable_elasticity`` (3 parameters, mm/s): the cabin swings freely on its elastic cables — the
   response of the cabin, platform held still, to an initial velocity ``v`` of the cabin in G
@@ -113,10 +115,10 @@ def fast_responses(
     frequency: float = 5.0,
 ) -> FastResponses:
     """Run the coupled FAST simulation once (four trajectories batched in one compiled call):
-    the §6 scenario with the momentum start, and three free swings of the cabin (platform
+    the paper's §6 scenario with the momentum start, and three free swings of the cabin (platform
     held still) from an initial velocity of :data:`KICK_MM_S` along G's x, y, z.
 
-    ``params`` default to :func:`~stewart_jax.fast.paper_fast_params`; ``position`` is
+    ``params`` default to :func:`~stewart_jax.cable_robot.paper_fast_params`; ``position`` is
     ``G t_C(0)`` (m); ``amplitude`` (m) and ``frequency`` (Hz) of the platform's motion;
     ``duration`` and ``dt`` in s (velocity Verlet). Compiles in ~15–25 s on 2 CPU cores.
     """
@@ -253,7 +255,7 @@ def fast_model(responses: FastResponses, sigma_um: float = 10.0) -> FastModel:
 @register_effect(MODEL_NAME, "cabin_coupling", n_params=1, scale=1.0, unit="× nominal")
 def cabin_coupling(theta: Float[Array, "1"], data: FastData, state: FastState) -> FastState:
     """The cabin is not held still: it recoils and pitches in reaction to the platform's
-    motion (cables, legs and platform coupled, :func:`stewart_jax.fast.simulate`). The extra
+    motion (cables, legs and platform coupled, :func:`stewart_jax.cable_robot.simulate`). The extra
     displacement is κ × the coupled simulation's extra error (κ = 1: the paper's masses; κ
     scales the moving-to-total mass ratio, to first order)."""
     return state._replace(displacement=state.displacement + theta[0] * state.coupled)
@@ -278,8 +280,6 @@ def actuator_delay(theta: Float[Array, "1"], data: FastData, state: FastState) -
     """The platform lags its plan by τ (s): ``x(t − τ) ≈ x(t) − τ ẋ(t)`` (τ ≪ 1/(2πf))."""
     return state._replace(displacement=state.displacement - theta[0] * state.planned_rate)
 
-
-FAST_EFFECTS = ("cabin_coupling", "cable_elasticity", "actuator_gain", "actuator_delay")
 
 
 # ---------------------------------------------------------------------------- measurements
