@@ -92,7 +92,8 @@ def _oracle(effect, t, g, true_poses, d):
     axes = np.tile(ez, (6, 1))
     if effect == "actuator_tilt":
         a, b = t[:6], t[6:]
-        axes = np.einsum("lij,ljk,k->li", _rot(np.stack([0 * b, b, 0 * b], -1)), _rot(np.stack([a, 0 * a, 0 * a], -1)), ez)
+        ry, rx = _rot(np.stack([0 * b, b, 0 * b], -1)), _rot(np.stack([a, 0 * a, 0 * a], -1))
+        axes = np.einsum("lij,ljk,k->li", ry, rx, ez)
     up, lo, v0 = np.asarray(g.upper), np.asarray(g.lower), np.asarray(g.v0)
     l0 = np.linalg.norm(up + v0 - lo, axis=-1)
     length = np.broadcast_to(l0, (len(true_poses), 6))

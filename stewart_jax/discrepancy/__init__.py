@@ -17,9 +17,9 @@ cable-robot simulator.
 
 from typing import Any
 
-from . import _effects as _effects  # registers the 6-PSS candidates
 from .._cli.diagnose import add_diagnose_parser as add_diagnose_parser
 from ..plotting._discrepancy import plot_residuals as plot_residuals
+from . import _effects as _effects  # registers the 6-PSS candidates
 from ._driver import (
     MIN_DOF as MIN_DOF,
     check_sizes as check_sizes,
@@ -40,7 +40,7 @@ from ._hidden import (
     write_hidden_csv as write_hidden_csv,
 )
 from ._pss import (
-    MODEL_NAME as PSS_MODEL_NAME,
+    PSS_MODEL_NAME as PSS_MODEL_NAME,
     PSSModel as PSSModel,
     PSSState as PSSState,
     load_fitted_model as load_fitted_model,

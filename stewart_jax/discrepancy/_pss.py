@@ -24,6 +24,8 @@ from ..mechanism._pss import Geometry, geometry_from_params
 from ._registry import AbstractDiscrepancyModel
 
 MODEL_NAME = "6-pss"
+PSS_MODEL_NAME = MODEL_NAME
+"""Registry name of the 6-PSS model (its effects are registered under it)."""
 
 
 class PSSState(NamedTuple):
