@@ -1,6 +1,8 @@
-"""Recovery-rate benchmark of the model-discrepancy workflow (6-PSS model; `docs/discrepancy.md`).
+"""Recovery-rate benchmark of the model-discrepancy workflow on the 6-PSS model (Wang et al.
+2018, "Improved cuckoo calibration method of space telescope secondary mirror adjusting
+mechanism", Infrared and Laser Engineering 47(5)).
 
-For every candidate effect × magnitude × seed, simulate measured data with that effect hidden
+For every registered candidate effect × magnitude × seed, simulate measured data with that effect hidden
 (``stewart_jax.discrepancy.simulate_hidden_effect``: the 120-pose plan + 60 random poses,
 random approach directions, temperatures and times; magnitude = RMS of the part of the
 effect's stroke-residual signature the 36 geometric parameters cannot absorb, in units of the
@@ -36,12 +38,13 @@ from stewart_jax import discrepancy as dc  # noqa: E402
 from stewart_jax.discrepancy import diagnose_many, select_effects, split_rows  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-LABELS = ("none",) + dc.EFFECT_NAMES
+EFFECTS = dc.effect_names(dc.PSS_MODEL_NAME)
+LABELS = ("none",) + EFFECTS
 
 
 def _control_rms(truth, fitted, rng):
     """RMS control error (µm over dx,dy,dz; ″ over φ,θ,ψ) at 42 random validation poses."""
-    half = np.array([sj.calibration.TRAVEL_MM] * 3 + [sj.calibration.TRAVEL_RAD] * 3)
+    half = np.array([sj.TRAVEL_MM] * 3 + [sj.TRAVEL_RAD] * 3)
     targets = rng.uniform(-half, half, (42, 6))
     cond = dc.random_conditions(rng, 42)
     data = sj.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)
@@ -104,7 +107,7 @@ def summarise(rows, magnitudes):
         for r in sub + null:
             conf[idx[r["true"]], idx[r["named"]]] += 1
         per_effect = {}
-        for eff in dc.EFFECT_NAMES:
+        for eff in EFFECTS:
             e = [r for r in sub if r["true"] == eff]
             per_effect[eff] = {
                 "runs": len(e),
@@ -195,6 +198,7 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, help="seeds per effect and magnitude (default 20; quick 3)")
     ap.add_argument("--null-seeds", type=int, help="null runs (default 60; quick 6)")
     ap.add_argument("--magnitudes", default="1,3,10", help="comma-separated, in units of the noise")
+    ap.add_argument("--out", help="results folder (default benchmarks/results)")
     ap.add_argument("--n-random", type=int, default=60, help="random poses added to the 120-pose plan")
     ap.add_argument("--holdout", type=float, default=0.3)
     ap.add_argument("--alpha", type=float, default=0.05)
@@ -206,7 +210,7 @@ def main(argv=None):
     t0 = time.perf_counter()
     rows = run_group(model, None, 0.0, list(range(1000, 1000 + n_null)), args.holdout, args.alpha, args.n_random)
     print(f"null: {sum(r['named'] != 'none' for r in rows)}/{n_null} false alarms", file=sys.stderr)
-    for eff in dc.EFFECT_NAMES:
+    for eff in EFFECTS:
         for mag in mags:
             g = run_group(model, eff, mag, list(range(n_seeds)), args.holdout, args.alpha, args.n_random)
             rows += g
@@ -231,11 +235,12 @@ def main(argv=None):
         "runs": rows,
     }
     name = "discrepancy_quick" if args.quick else "discrepancy"
-    os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
-    with open(os.path.join(HERE, "results", name + ".json"), "w") as f:
+    folder = args.out or os.path.join(HERE, "results")
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, name + ".json"), "w") as f:
         json.dump(result, f, indent=1)
     md = to_markdown(result)
-    with open(os.path.join(HERE, "results", name + ".md"), "w") as f:
+    with open(os.path.join(folder, name + ".md"), "w") as f:
         f.write(md)
     print(md)
     return 0

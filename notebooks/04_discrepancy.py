@@ -14,6 +14,9 @@
 # %% [markdown]
 # # 4. Model discrepancy: find the effect the 36-parameter model is missing
 #
+# The 36-parameter joint-centre model of Wang et al. 2018, "Improved cuckoo calibration method of
+# space telescope secondary mirror adjusting mechanism" (Infrared and Laser Engineering 47(5)).
+#
 # A simulated measurement run of a mechanism with a **hidden** effect — here backlash: the
 # reading depends on the direction each slider approached from. The 36-parameter model cannot
 # represent it; the workflow (`stewart_jax.discrepancy.diagnose`) should

@@ -1,4 +1,6 @@
-"""``stewart-jax diagnose``  and ``stewart-jax simulate-effect``."""
+"""``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
+measurement CSV) and ``stewart-jax simulate-effect`` (measurements with one hidden registered
+effect). The candidate names come from the effect registry."""
 
 from __future__ import annotations
 
@@ -9,8 +11,7 @@ import sys
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..calibration._csv import read_csv
-    from ..discrepancy._pss import pss_model
-    from ..discrepancy._workflow import diagnose
+    from ..discrepancy import diagnose, pss_model
     from ..mechanism._registry import load_mechanism
 
     data = read_csv(args.file)
@@ -38,17 +39,17 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "estimate_noise": args.estimate_noise,
     }
     if args.plot:
-        import matplotlib
+        from ._common import file_backend
 
-        matplotlib.use("Agg")  # --plot only writes files
-        from ..plotting._discrepancy import plot_residuals
+        file_backend()
+        from ..plotting import plot_residuals
 
         out["plots"] = plot_residuals(report, args.plot)
     if args.out_model:
-        from ..discrepancy._pss import save_fitted_model
+        from ..discrepancy import save_fitted_model
 
         save_fitted_model(report.fitted, args.out_model)
-    skipped = "; ".join(f"{s['effect']}: {s['reason']}" for s in report.skipped)
+    skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
     indist = ""
     if report.indistinguishable_from:
         indist = f" (indistinguishable from {', '.join(report.indistinguishable_from)})"
@@ -68,7 +69,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
-    from ..discrepancy._hidden import simulate_hidden_effect, write_hidden_csv
+    from ..discrepancy import simulate_hidden_effect, write_hidden_csv
 
     effect = None if args.effect == "none" else args.effect
     sim = simulate_hidden_effect(
@@ -86,8 +87,11 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
+    from ..discrepancy import PSS_MODEL_NAME, effect_names
+
+    names = effect_names(PSS_MODEL_NAME)
     p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
-    p.add_argument("file", help="measured data CSV (dir1..dir6, temperature, time optional)")
+    p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional)")
     p.add_argument("--geometry", default="nominal", help="starting geometry: preset or JSON/TOML file")
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
@@ -97,17 +101,15 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")
     p.add_argument("--seed", type=int, default=0, help="seed of the train/held-out split")
     p.add_argument("--alpha", type=float, default=0.05, help="false-alarm level of the detection test")
-    p.add_argument("--effects", help="comma-separated candidate names (default: all registered)")
+    p.add_argument("--effects", help=f"comma-separated candidate names (default: all registered: {', '.join(names)})")
     p.add_argument("--json", help="write the report as JSON")
     p.add_argument("--plot", metavar="DIR", help="write residual plots (before/after) to DIR")
     p.add_argument("--out-model", help="write the augmented model (geometry + effect parameters) as JSON")
     p.set_defaults(func=_cmd_diagnose)
 
-    from ..discrepancy._hidden import EFFECT_NAMES
-
     q = subparsers.add_parser("simulate-effect", help="simulated measured data with one hidden effect (CSV)")
     q.add_argument("--out", required=True)
-    q.add_argument("--effect", choices=("none",) + EFFECT_NAMES, default="none")
+    q.add_argument("--effect", choices=("none",) + names, default="none")
     q.add_argument("--magnitude", type=float, default=3.0, help="unabsorbable signature RMS / noise")
     q.add_argument("--seed", type=int, default=0)
     q.add_argument("--n-random", type=int, default=60, help="random poses added to the 120-pose plan")

@@ -1,29 +1,44 @@
 """Model-discrepancy workflow: detect where a calibrated model disagrees with the data, name
-the missing effect from a registry of candidates, add it, show the gap shrink on held-out data.
+the missing effect from a registry of candidates, add it, show the gap shrink.
 
-The workflow is generic over :class:`AbstractDiscrepancyModel`; the 6-PSS calibration model of
-Wang et al. (2018) (:class:`PSSModel`) and its seven candidate effects are registered under
-``"6-pss"``. The FAST cable-robot adapter (``FastModel``, ``fast_model``, ``fast_responses``,
-``simulate_fast_measurement``, ``FAST_EFFECTS``, ``FAST_MODEL_NAME``) is imported on first
-use, so ``import stewart_jax.discrepancy`` does not load the cable-robot simulator; so is
-``plot_residuals`` (matplotlib).
+The workflow (:func:`diagnose`, :func:`diagnose_many`) is generic over
+:class:`AbstractDiscrepancyModel`. The 6-PSS calibration model of Wang et al. 2018, "Improved
+cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
+and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are registered under
+``"6-pss"``; :func:`effects_for` lists them and :func:`simulate_hidden_effect` hides any of
+them in simulated measurements.
+
+The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
+:func:`fast_model`, :func:`fast_responses`, :func:`simulate_fast_measurement`, effects under
+``"fast"``) is loaded on first access, so that importing this package does not load the
+cable-robot simulator; ``plot_residuals`` (matplotlib) likewise.
 """
 
-import importlib as _importlib
+from typing import Any
 
 from . import _effects as _effects  # registers the 6-PSS candidates
+from ._driver import (
+    MIN_DOF as MIN_DOF,
+    check_sizes as check_sizes,
+    diagnose as diagnose,
+    diagnose_many as diagnose_many,
+    select_effects as select_effects,
+    split_rows as split_rows,
+)
 from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
 from ._hidden import (
-    EFFECT_NAMES as EFFECT_NAMES,
     Conditions as Conditions,
     HiddenEffectData as HiddenEffectData,
     HiddenTruth as HiddenTruth,
+    hidden_pose_set as hidden_pose_set,
     random_conditions as random_conditions,
     simulate_hidden_effect as simulate_hidden_effect,
     true_control_error as true_control_error,
     write_hidden_csv as write_hidden_csv,
 )
 from ._pss import (
+    PSS_MODEL_NAME as PSS_MODEL_NAME,
     PSSModel as PSSModel,
     PSSState as PSSState,
     load_fitted_model as load_fitted_model,
@@ -34,43 +49,46 @@ from ._pss import (
 from ._registry import (
     AbstractDiscrepancyModel as AbstractDiscrepancyModel,
     Effect as Effect,
+    effect_names as effect_names,
     effects_for as effects_for,
     get_effect as get_effect,
     register_effect as register_effect,
 )
-from ._workflow import (
-    Absorption as Absorption,
+from ._report import (
     Candidate as Candidate,
     DiagnosisReport as DiagnosisReport,
     FittedModel as FittedModel,
-    absorption as absorption,
+    SkippedEffect as SkippedEffect,
+)
+from ._statistics import (
+    Bin as Bin,
+    FactorDependence as FactorDependence,
+    WhereAnalysis as WhereAnalysis,
+    WhereFlag as WhereFlag,
+    bic as bic,
     chi2_sf as chi2_sf,
-    diagnose as diagnose,
-    diagnose_many as diagnose_many,
     f_sf as f_sf,
     heldout_chi2 as heldout_chi2,
-    select_effects as select_effects,
-    split_rows as split_rows,
+    nested_p as nested_p,
     where_analysis as where_analysis,
 )
+from ._subspace import Absorption as Absorption, absorption as absorption
 
-_LAZY = {
-    "FastModel": ("._cable_robot", "FastModel"),
-    "fast_model": ("._cable_robot", "fast_model"),
-    "fast_responses": ("._cable_robot", "fast_responses"),
-    "simulate_fast_measurement": ("._cable_robot", "simulate_fast_measurement"),
-    "FAST_EFFECTS": ("._cable_robot", "FAST_EFFECTS"),
-    "FAST_MODEL_NAME": ("._cable_robot", "MODEL_NAME"),
-    "plot_residuals": ("..plotting._discrepancy", "plot_residuals"),
-}
+_CABLE_ROBOT = ("FastData", "FastModel", "FastResponses", "FastState", "fast_model", "fast_responses",
+                "simulate_fast_measurement")
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        module, attr = _LAZY[name]
-        return getattr(_importlib.import_module(module, __name__), attr)
-    raise AttributeError(f"module 'stewart_jax.discrepancy' has no attribute {name!r}")
+def __getattr__(name: str) -> Any:
+    if name in _CABLE_ROBOT:
+        from . import _cable_robot
+
+        return getattr(_cable_robot, name)
+    if name == "plot_residuals":  # a figure: matplotlib is loaded on first use only
+        from ..plotting import plot_residuals
+
+        return plot_residuals
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def __dir__():
-    return sorted([*globals(), *_LAZY])
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_CABLE_ROBOT) | {"plot_residuals"})

@@ -1,6 +1,8 @@
-"""The FAST feed-support dynamics (Yin et al., "Dynamic modeling of a cable-driven parallel robot with a Stewart platform for use in FAST"; :mod:`stewart_jax.cable_robot`) as a discrepancy model.
+"""The FAST feed-support dynamics (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
+parallel robot with a Stewart platform for use in FAST", received 2021; simulated by
+:mod:`stewart_jax.cable_robot`) as a discrepancy model.
 
-**Rows** are time samples of the §6 scenario (the lower platform moves
+**Rows** are time samples of the paper's §6 scenario (eq. 62: the lower platform moves
 ``B x_P(t) = (A sin 2πft, 0, 0)`` relative to the cabin, A = 10 mm, f = 5 Hz). **Observations**
 are the lower platform's position ``x, y, z`` in the ground frame G, relative to its nominal
 rest position, in **mm** (library units; residuals are reported in µm). The **base model**
@@ -113,7 +115,7 @@ def fast_responses(
     frequency: float = 5.0,
 ) -> FastResponses:
     """Run the coupled FAST simulation once (four trajectories batched in one compiled call):
-    the §6 scenario with the momentum start, and three free swings of the cabin (platform
+    the paper's §6 scenario with the momentum start, and three free swings of the cabin (platform
     held still) from an initial velocity of :data:`KICK_MM_S` along G's x, y, z.
 
     ``params`` default to :func:`~stewart_jax.cable_robot.paper_fast_params`; ``position`` is
@@ -278,8 +280,6 @@ def actuator_delay(theta: Float[Array, "1"], data: FastData, state: FastState) -
     """The platform lags its plan by τ (s): ``x(t − τ) ≈ x(t) − τ ẋ(t)`` (τ ≪ 1/(2πf))."""
     return state._replace(displacement=state.displacement - theta[0] * state.planned_rate)
 
-
-FAST_EFFECTS = ("cabin_coupling", "cable_elasticity", "actuator_gain", "actuator_delay")
 
 
 # ---------------------------------------------------------------------------- measurements

@@ -1,4 +1,6 @@
-"""The candidate effects (``docs/discrepancy.md``) for the 6-PSS model.
+"""The candidate effects of the 6-PSS model (the mechanism of Wang et al. 2018, "Improved
+cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
+and Laser Engineering 47(5)): what the 36-parameter joint-centre model leaves out.
 
 Each is the physics of the *true* mechanism written as a change of the model's
 :class:`~stewart_jax.discrepancy._pss.PSSState`; ``theta = 0`` is the 36-parameter model.
@@ -11,8 +13,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..calibration._problem import ARCSEC, UM, CalibrationData
-from ..mechanism._kinematics import euler_angles, rotation_matrix
+from .._math import euler_angles, rotation_matrix
+from .._units import ARCSEC, UM
+from ..calibration._problem import CalibrationData
 from ._pss import MODEL_NAME, PSSState
 from ._registry import register_effect
 

@@ -1,18 +1,23 @@
-"""Simulated measurements with one hidden effect, to test and benchmark the workflow.
+"""Simulated measurements of a 6-PSS mechanism with one hidden effect, to test and benchmark
+the discrepancy workflow (the mechanism of Wang et al. 2018, "Improved cuckoo calibration
+method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
+Engineering 47(5)).
 
-The true mechanism is simulated here *independently of the model code* (``_pss.py``,
-``_effects.py``): plain NumPy, the leg constraint solved by the textbook quadratic formula,
-each effect written from the mechanism's side (reading → true stroke → pose → measured pose).
-Only the effects' typical scales are taken from the registry, to draw random parameters.
+The simulator is registry-driven: the true mechanism is the 6-PSS model extended by the hidden
+effect's registered ``apply`` at its true parameters — the same function the workflow fits —
+so every registered effect can be hidden without editing this module. The effect's
+``random_direction`` (default: standard normal × ``scale``) draws the direction of the true
+parameters and ``requires`` names the conditions it needs.
 
-Protocol: true poses = the 120-pose plan of Wang et al. (2018), §4 plus ``n_random`` uniform poses in the
-travel, visited in random order every 20–40 s (``time``); each slider approaches from a random
-side (``dir``); the temperature is uniform in 20 ± 3 °C, independent of time and pose. The
-measured pose is the true pose seen by the (possibly misaligned) instrument plus Gaussian
-noise σ (µm, ″). The effect's parameters are random per leg, scaled so that the part of its
-stroke-residual signature the 36 geometric parameters cannot absorb has the requested RMS
-relative to the noise (whitened units: ``magnitude = 3`` means the unabsorbable signature is
-3× the noise per residual).
+Protocol: the noise-free measured poses = the 120-pose plan (Wang et al. 2018, §3) plus
+``n_random`` uniform poses in the travel, visited in random order every 20–40 s (``time``);
+each slider approaches from a random side (``dir``); the temperature is uniform in 20 ± 3 °C,
+independent of time and pose. The readings are those of the true mechanism at the true poses
+(the measured poses mapped by a measurement-side effect, e.g. a misaligned instrument); the
+measured poses get Gaussian noise σ (µm, ″). The effect's parameters are scaled so that the
+part of its stroke-residual signature the 36 geometric parameters cannot absorb has the
+requested RMS relative to the noise (whitened units: ``magnitude = 3`` means the unabsorbable
+signature is 3× the noise per residual).
 """
 
 from __future__ import annotations
@@ -20,44 +25,26 @@ from __future__ import annotations
 import dataclasses
 import os
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Float
 
-from ..calibration._problem import ARCSEC, UM, CalibrationData, make_calibration_data, stroke_residuals
-from ..mechanism._pss import Geometry, actual_geometry
+from .._units import ARCSEC, UM
 from ..calibration._csv import write_csv
-from ..mechanism._kinematics import solve_inverse_kinematics
+from ..calibration._identifiability import stroke_noise_covariance
+from ..calibration._problem import CalibrationData, make_calibration_data, stroke_residuals
 from ..calibration._simulation import sampling_plan_120
+from ..mechanism._pss import Geometry, actual_geometry
 from ._effects import T_REF_C
-from ._registry import get_effect
+from ._pss import MODEL_NAME, pss_model
+from ._registry import Effect, effect_names, get_effect
 
-MODEL = "6-pss"
-EFFECT_NAMES = (
-    "zero_offset",
-    "stroke_scale",
-    "actuator_tilt",
-    "backlash",
-    "thermal_expansion",
-    "drift",
-    "tracker_misalignment",
-)
-
-
-def _rot(angles: np.ndarray) -> np.ndarray:
-    """``Rz(ψ)·Ry(θ)·Rx(φ)`` from the elementary rotations (Wang et al. 2018, eq. 1), batched."""
-    a = np.asarray(angles, dtype=float)
-    f, t, p = a[..., 0], a[..., 1], a[..., 2]
-    o, z = np.ones_like(f), np.zeros_like(f)
-    rx = np.stack([o, z, z, z, np.cos(f), -np.sin(f), z, np.sin(f), np.cos(f)], -1).reshape(*f.shape, 3, 3)
-    ry = np.stack([np.cos(t), z, np.sin(t), z, o, z, -np.sin(t), z, np.cos(t)], -1).reshape(*f.shape, 3, 3)
-    rz = np.stack([np.cos(p), -np.sin(p), z, np.sin(p), np.cos(p), z, z, z, o], -1).reshape(*f.shape, 3, 3)
-    return rz @ ry @ rx
-
-
-def _angles(r: np.ndarray) -> np.ndarray:
-    phi = np.arctan2(r[..., 2, 1], r[..., 2, 2])
-    return np.stack([phi, -np.arcsin(r[..., 2, 0]), np.arctan2(r[..., 1, 0], r[..., 0, 0])], -1)
+CONDITION_COLUMNS = ("directions", "temperature", "time")
+"""The data columns the simulator provides (an effect requiring another cannot be simulated)."""
+_PROBE = 1e-3
+"""Fraction of the drawn direction used to measure the effect's signature (linear regime)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +55,38 @@ class Conditions:
     directions: np.ndarray
     temperature: np.ndarray
     time: np.ndarray
+
+    def data(self, poses: Float[np.ndarray, "m 6"], strokes: Float[np.ndarray, "m 6"] | None = None) -> CalibrationData:
+        """:class:`CalibrationData` with these conditions (strokes 0 unless given)."""
+        q = np.zeros_like(np.asarray(poses, dtype=float)) if strokes is None else strokes
+        return make_calibration_data(q, poses, self.directions, self.temperature, self.time)
+
+
+@eqx.filter_jit
+def _predict(model, effects, thetas, data, control):
+    return model.predict(model.base_initial, effects, thetas, data, control=control)
+
+
+@eqx.filter_jit
+def _true_poses(model, effects, thetas, data):
+    state = model.initial_state(model.base_initial, data, False)
+    for e, t in zip(effects, thetas, strict=True):
+        state = e(t, data, state)
+    return state.poses
+
+
+@eqx.filter_jit
+def _newton_terms(model, effects, thetas, data, target):
+    """Residual ``f(P) = readings(P) − target`` of the true mechanism (control side) and its
+    per-pose Jacobians ``(m, 6, 6)``.
+
+    NOTE: each row's readings depend on that row's pose only, so the Jacobian of the readings
+    with respect to one shift δ added to every pose is the block diagonal of the full one."""
+
+    def readings(delta):
+        return model.predict(model.base_initial, effects, thetas, data._replace(poses=data.poses + delta), control=True)
+
+    return readings(jnp.zeros(6)) - target, jax.jacfwd(readings)(jnp.zeros(6))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,82 +102,35 @@ class HiddenTruth:
     magnitude: float
     raw_magnitude: float
 
-    def axes(self) -> np.ndarray:
-        if self.effect != "actuator_tilt":
-            return np.tile([0.0, 0.0, 1.0], (6, 1))
-        a, b = self.theta[:6], self.theta[6:]
-        ez = np.array([0.0, 0.0, 1.0])
-        rx = _rot(np.stack([a, 0 * a, 0 * a], -1))
-        ry = _rot(np.stack([0 * b, b, 0 * b], -1))
-        return np.einsum("lij,ljk,k->li", ry, rx, ez)
+    def _parts(self) -> tuple[object, tuple[Effect, ...], tuple[jnp.ndarray, ...]]:
+        model = pss_model(self.geometry)
+        if self.effect is None:
+            return model, (), ()
+        return model, (get_effect(MODEL_NAME, self.effect),), (jnp.asarray(self.theta, jnp.float64),)
 
-    def rod_lengths(self, temperature: np.ndarray) -> np.ndarray:
-        g = self.geometry
-        l0 = np.linalg.norm(np.asarray(g.upper) + np.asarray(g.v0) - np.asarray(g.lower), axis=-1)
-        if self.effect != "thermal_expansion":
-            return np.broadcast_to(l0, (len(temperature), 6))
-        return l0 * (1.0 + self.theta * (np.asarray(temperature)[:, None] - T_REF_C))
+    def readings(self, measured: Float[np.ndarray, "m 6"], cond: Conditions) -> np.ndarray:
+        """Encoder readings of the true mechanism when the (noise-free) instrument measures
+        ``measured`` (mm, rad)."""
+        return np.asarray(_predict(*self._parts(), cond.data(measured), False))
 
-    def true_strokes(self, poses: np.ndarray, cond: Conditions) -> np.ndarray:
-        """Slider strokes that put the true mechanism at ``poses`` (m, 6)."""
-        g = self.geometry
-        a = np.einsum("mij,lj->mli", _rot(poses[:, 3:]), np.asarray(g.upper)) + poses[:, None, :3] + np.asarray(g.v0)
-        w = a - np.asarray(g.lower)
-        n = self.axes()
-        nw = np.einsum("li,mli->ml", n, w)
-        disc = nw**2 - np.sum(w**2, -1) + self.rod_lengths(cond.temperature) ** 2
-        if np.any(disc < 0):
-            raise ValueError("a pose is out of reach of the true mechanism")
-        return nw - np.sqrt(disc)
+    def true_poses(self, measured: Float[np.ndarray, "m 6"], cond: Conditions) -> np.ndarray:
+        """The poses in B that the instrument sees as ``measured``."""
+        return np.asarray(_true_poses(*self._parts(), cond.data(measured)))
 
-    def readings(self, strokes: np.ndarray, cond: Conditions) -> np.ndarray:
-        """Encoder readings for true strokes."""
-        e, t = self.effect, self.theta
-        if e == "zero_offset":
-            return strokes + t
-        if e == "stroke_scale":
-            return strokes / (1.0 + t)
-        if e == "backlash":
-            return strokes + 0.5 * t * cond.directions
-        if e == "drift":
-            return strokes + t * cond.time[:, None]
-        return strokes
-
-    def strokes_from_readings(self, readings: np.ndarray, cond: Conditions) -> np.ndarray:
-        e, t = self.effect, self.theta
-        if e == "zero_offset":
-            return readings - t
-        if e == "stroke_scale":
-            return readings * (1.0 + t)
-        if e == "backlash":
-            return readings - 0.5 * t * cond.directions
-        if e == "drift":
-            return readings - t * cond.time[:, None]
-        return readings
-
-    def measure(self, poses: np.ndarray) -> np.ndarray:
-        """Noise-free measured poses: the true poses expressed in the instrument frame."""
-        if self.effect != "tracker_misalignment":
-            return poses.copy()
-        rho, tau = _rot(self.theta[:3]), self.theta[3:]
-        v0 = np.asarray(self.geometry.v0)
-        r = np.einsum("ji,mjk->mik", rho, _rot(poses[:, 3:]))
-        d = (poses[:, :3] + v0 - tau) @ rho - v0
-        return np.concatenate([d, _angles(r)], -1)
+    def commanded_readings(self, poses: Float[np.ndarray, "m 6"], cond: Conditions) -> np.ndarray:
+        """Readings that put the true mechanism at ``poses`` (in B)."""
+        return np.asarray(_predict(*self._parts(), cond.data(poses), True))
 
     def forward(self, readings: np.ndarray, cond: Conditions, initial: np.ndarray) -> np.ndarray:
-        """Poses the true mechanism reaches for ``readings`` (Newton, finite-difference
-        Jacobian)."""
-        target = self.strokes_from_readings(readings, cond)
+        """Poses (in B) the true mechanism reaches for ``readings`` (Newton from ``initial``)."""
+        model, effects, thetas = self._parts()
         p = np.array(initial, dtype=float)
-        h = 1e-7
+        target = jnp.asarray(readings, jnp.float64)
         for _ in range(20):
-            f = self.true_strokes(p, cond) - target
+            f, jac = _newton_terms(model, effects, thetas, cond.data(p), target)
+            f, jac = np.asarray(f), np.asarray(jac)
             if np.max(np.abs(f)) < 1e-13:
                 break
-            step = h * np.eye(6)
-            diffs = [self.true_strokes(p + step[k], cond) - self.true_strokes(p - step[k], cond) for k in range(6)]
-            jac = np.stack(diffs, axis=-1) / (2 * h)
             p = p - np.linalg.solve(jac, f[..., None])[..., 0]
         return p
 
@@ -166,7 +138,7 @@ class HiddenTruth:
 @dataclasses.dataclass(frozen=True)
 class HiddenEffectData:
     """Simulated measured ``data`` (with ``dir``, ``temperature``, ``time``), the
-    ``true_poses`` and the ``truth``."""
+    ``true_poses`` (in B) and the ``truth``."""
 
     data: CalibrationData
     true_poses: np.ndarray
@@ -194,14 +166,12 @@ def hidden_pose_set(rng: np.random.Generator, n_random: int = 60, plan: bool = T
 
 
 _res_jac = jax.jit(jax.jacfwd(stroke_residuals))
-_pose_jac = jax.jit(
-    jax.vmap(jax.jacfwd(lambda g, p: solve_inverse_kinematics(g, p).strokes, argnums=1), in_axes=(None, 0))
-)
 
 
 def _whitened_projector(geometry: Geometry, poses: np.ndarray, sigma: np.ndarray):
-    jp = np.asarray(_pose_jac(geometry, jnp.asarray(poses)))
-    cov = np.einsum("mik,k,mjk->mij", jp, sigma**2, jp)
+    """Per-pose whiteners of the stroke residuals and an orthonormal basis of the whitened
+    36-parameter Jacobian's span."""
+    cov = np.asarray(stroke_noise_covariance(geometry, jnp.asarray(poses), jnp.diag(jnp.asarray(sigma**2))))
     w = np.linalg.inv(np.linalg.cholesky(cov))
     data = CalibrationData(jnp.zeros_like(jnp.asarray(poses)), jnp.asarray(poses))
     g = np.asarray(_res_jac(geometry.params, data, geometry)).reshape(len(poses), 6, 36)
@@ -223,12 +193,13 @@ def simulate_hidden_effect(
     geometry: Geometry | None = None,
     noise: bool = True,
 ) -> HiddenEffectData:
-    """Measured data of a true mechanism (default: Wang et al.'s (2018) Table 1 actual geometry) with one hidden
-    ``effect`` (``None`` for none) whose unabsorbable signature is ``magnitude`` × the noise.
-    ``noise=False`` leaves the noise out of the measured poses (the effect is still scaled to
-    the noise level σ)."""
-    if effect is not None and effect not in EFFECT_NAMES:
-        raise ValueError(f"unknown effect {effect!r}; choose from {EFFECT_NAMES} or None")
+    """Measured data of a true mechanism (default: the "actual" geometry of
+    :func:`~stewart_jax.actual_geometry`) with one hidden registered ``effect`` (``None`` for
+    none) whose unabsorbable signature is ``magnitude`` × the noise. ``noise=False`` leaves the
+    noise out of the measured poses (the effect is still scaled to the noise level σ)."""
+    names = effect_names(MODEL_NAME)
+    if effect is not None and effect not in names:
+        raise ValueError(f"unknown effect {effect!r}; choose from {names} or None")
     if not magnitude >= 0:
         raise ValueError(f"magnitude must be ≥ 0, got {magnitude}")
     rng = np.random.default_rng(seed)
@@ -240,33 +211,34 @@ def simulate_hidden_effect(
     theta = np.zeros(0)
     achieved = raw = 0.0
     if effect is not None:
-        e = get_effect(MODEL, effect)
-        direction = rng.standard_normal(e.n_params) * np.asarray(e.scale)
+        e = get_effect(MODEL_NAME, effect)
+        unknown = [c for c in e.requires if c not in CONDITION_COLUMNS]
+        if unknown:
+            raise ValueError(f"effect {effect!r} needs column(s) {unknown}, which the simulator does not provide")
+        direction = e.random_direction(rng)
         # Signature of the direction, linear regime: residuals of the true geometry's
         # 36-parameter model on noise-free data, whitened, then the part the geometry absorbs
         # removed.
-        probe = HiddenTruth(geometry, effect, direction * 1e-3, 0.0, 0.0)
-        meas = probe.measure(poses)
-        q = probe.readings(probe.true_strokes(poses, cond), cond)
-        noise_free = CalibrationData(jnp.asarray(q), jnp.asarray(meas))
-        sig = np.asarray(stroke_residuals(geometry.params, noise_free, geometry))
-        w, basis = _whitened_projector(geometry, meas, sigma)
-        sig_w = np.einsum("mij,mj->mi", w, sig.reshape(m, 6)).reshape(-1) / 1e-3
+        base = HiddenTruth(geometry, None, np.zeros(0), 0.0, 0.0).readings(poses, cond)
+        probe = HiddenTruth(geometry, effect, direction * _PROBE, 0.0, 0.0).readings(poses, cond)
+        w, basis = _whitened_projector(geometry, poses, sigma)
+        sig_w = np.einsum("mij,mj->mi", w, probe - base).reshape(-1) / _PROBE
         orth = sig_w - basis @ (basis.T @ sig_w)
         orth_rms, raw_rms = np.sqrt(np.mean(orth**2)), np.sqrt(np.mean(sig_w**2))
         factor = magnitude / orth_rms if orth_rms > 1e-6 * raw_rms else magnitude / raw_rms
         theta = direction * factor
         achieved, raw = orth_rms * factor, raw_rms * factor
     truth = HiddenTruth(geometry, effect, theta, float(achieved), float(raw))
-    q = truth.readings(truth.true_strokes(poses, cond), cond)
-    measured = truth.measure(poses) + float(noise) * sigma * rng.standard_normal((m, 6))
+    q = truth.readings(poses, cond)
+    measured = poses + float(noise) * sigma * rng.standard_normal((m, 6))
     data = make_calibration_data(q, measured, cond.directions, cond.temperature, cond.time)
-    return HiddenEffectData(data, poses, truth)
+    return HiddenEffectData(data, truth.true_poses(poses, cond), truth)
 
 
 def write_hidden_csv(path: str | os.PathLike[str], sim: HiddenEffectData) -> None:
-    """measurement CSV (``docs/conventions.md``) (with ``dir1..dir6``, ``temperature``, ``time``) plus ``true_*`` pose
-    columns, readable by ``stewart-jax diagnose``."""
+    """Measurement CSV (the columns of :func:`~stewart_jax.write_csv`, with ``dir1..dir6``,
+    ``temperature``, ``time``) plus ``true_*`` pose columns, readable by
+    ``stewart-jax diagnose``."""
     p = np.array(sim.true_poses)
     p[:, 3:] = np.degrees(p[:, 3:])
     write_csv(path, sim.data, {",".join(f"true_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")): p})

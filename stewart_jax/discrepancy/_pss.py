@@ -1,8 +1,11 @@
-"""The 6-PSS calibration model (Wang et al. 2018, §1) as a discrepancy model.
+"""The 6-PSS calibration model as a discrepancy model (Wang et al. 2018, "Improved cuckoo
+calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
+Engineering 47(5), §1: the mechanism, eq. 4: the inverse kinematics, the 36 joint-centre
+parameters).
 
 Observations are the encoder readings ``q'`` (6 per pose); the base parameters are the 36
-joint centres; the noise is on the measured pose (σ per translation and angle) and
-reaches the readings through the kinematic Jacobian.
+joint centres; the noise is on the measured pose (σ per translation and angle) and reaches the
+readings through the kinematic Jacobian.
 """
 
 from __future__ import annotations
@@ -14,12 +17,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..calibration._problem import ARCSEC, UM, CalibrationData
-from ..mechanism._pss import Geometry
-from ..mechanism._kinematics import rotation_matrix
+from .._math import rotation_matrix
+from .._units import ARCSEC, COMPONENTS, UM, error_in_report_units
+from ..calibration._problem import CalibrationData
+from ..mechanism._pss import Geometry, geometry_from_params
 from ._registry import AbstractDiscrepancyModel
 
 MODEL_NAME = "6-pss"
+PSS_MODEL_NAME = MODEL_NAME
+"""Registry name of the 6-PSS model (its effects are registered under it)."""
 
 
 class PSSState(NamedTuple):
@@ -59,7 +65,7 @@ def pss_strokes(
     NOTE: with ``e = Ac + v0 − Bc`` (zero-pose leg), ``δ = T·Ac − Ac + d`` and ``w = e + δ``,
     the quadratic ``q² − 2q(n·w) + |w|² − L² = 0`` has the root
     ``q = c / (n·w + sqrt((n·w)² − c))`` with ``c = 2e·δ + |δ|² − ΔL(2|e| + ΔL)``: no
-    cancellation, exactly 0 at the zero pose, and equal to Wang et al. (2018), eq. 4 for ``n = e_z``,
+    cancellation, exactly 0 at the zero pose, and equal to Wang et al. (2018) eq. 4 for ``n = e_z``,
     ``ΔL = 0``.
     """
     rot = rotation_matrix(poses[:, 3:])
@@ -133,10 +139,18 @@ class PSSModel(AbstractDiscrepancyModel):
         return jax.vmap(jax.jacfwd(one))(poses)
 
     def noise_covariance(self, base: Float[Array, "36"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        """``J Σ_P Jᵀ + σ_q² I`` per pose (mm²)."""
-        jac = self.pose_jacobians(base, data.poses)
+        """``J Σ_P Jᵀ + σ_q² I`` per pose (mm²): the calibration package's
+        :func:`~stewart_jax.stroke_noise_covariance` plus the reading noise.
+
+        NOTE: ``J`` here is the forward-mode derivative of :func:`pss_strokes`, not the analytic
+        :func:`~stewart_jax.kinematic_jacobian` that ``stroke_noise_covariance`` uses: equal to
+        rounding, but the whitened fits are ill-conditioned enough (cond ~1e5) that switching
+        moves reported statistics by up to ~1e-6 relative, so the published numbers keep
+        this Jacobian (see ``tests/test_discrepancy.py`` for the agreement of the two)."""
         var = jnp.concatenate([jnp.full(3, self.sigma_mm**2), jnp.full(3, self.sigma_rad**2)])
-        return jnp.einsum("mik,k,mjk->mij", jac, var, jac) + self.sigma_stroke_mm**2 * jnp.eye(6)
+        jac = self.pose_jacobians(base, data.poses)
+        cov = jnp.einsum("mik,k,mjk->mij", jac, var, jac)
+        return cov + self.sigma_stroke_mm**2 * jnp.eye(6)
 
     def whitener(self, base: Float[Array, "36"], data: CalibrationData) -> Float[Array, "m 6 6"]:
         chol = jnp.linalg.cholesky(self.noise_covariance(base, data))
@@ -151,9 +165,8 @@ class PSSModel(AbstractDiscrepancyModel):
         jac = np.asarray(self.pose_jacobians(base, data.poses))
         dp = np.linalg.solve(jac, np.asarray(residuals)[..., None])[..., 0]
         units = ("µm",) * 3 + ("″",) * 3
-        scale = np.array([1 / UM] * 3 + [1 / ARCSEC] * 3)
-        names = ("dx", "dy", "dz", "phi", "theta", "psi")
-        return {f"{n}_{u}": dp[:, k] * scale[k] for k, (n, u) in enumerate(zip(names, units, strict=True))}
+        e = error_in_report_units(dp)
+        return {f"{n}_{u}": e[:, k] for k, (n, u) in enumerate(zip(COMPONENTS, units, strict=True))}
 
     def columns(self, data: CalibrationData) -> frozenset[str]:
         return frozenset(
@@ -236,9 +249,8 @@ def load_fitted_model(path):
     whose :meth:`commanded` gives the readings to command for target poses."""
     import json
 
-    from ..mechanism._pss import geometry_from_params
     from ._registry import get_effect
-    from ._workflow import FittedModel
+    from ._report import FittedModel
 
     with open(path) as f:
         d = json.load(f)

@@ -1,6 +1,6 @@
 """Candidate effects and the model abstraction of the discrepancy workflow.
 
-The workflow (``_workflow.py``) knows nothing about Stewart platforms. It needs a *model*
+The workflow (:func:`~stewart_jax.discrepancy.diagnose`) knows nothing about Stewart platforms. It needs a *model*
 (:class:`AbstractDiscrepancyModel`): base parameters, a prediction of the observations
 from the base parameters and a set of *effects*, and a noise model that whitens the
 residual of one data row. An *effect* (:class:`Effect`) is a small registered function
@@ -19,7 +19,14 @@ A new effect is one decorated function::
         '''Physics, parameters, units.'''
         return state._replace(offset=state.offset + theta)
 
-A second model (the FAST dynamics) plugs in by subclassing
+The same function is what the hidden-effect simulator
+(:func:`~stewart_jax.discrepancy.simulate_hidden_effect`) evaluates at the true parameters to
+produce the readings, so a registered effect is simulated, diagnosed, listed by the command
+line and tested without editing any list. ``draw`` optionally replaces the simulator's default
+random direction of the true parameters (standard normal × ``scale``).
+
+A second model (the FAST dynamics of Yin, Jiang, Chen, Yao, "Dynamic modeling of a
+cable-driven parallel robot with a Stewart platform for use in FAST") plugs in by subclassing
 :class:`AbstractDiscrepancyModel` and registering effects under its own model name.
 """
 
@@ -42,7 +49,7 @@ class Effect(eqx.Module):
 
     **Fields** (all static: an effect is a definition, not data):
 
-    - ``name``: the canonical name (for the 6-PSS model, those of ``docs/discrepancy.md``).
+    - ``name``: the canonical name.
     - ``model``: the name of the model it extends.
     - ``n_params``: number of parameters ``k``.
     - ``apply``: ``(theta: Float[Array, "k"], data, state) -> state``; pure, jittable,
@@ -55,6 +62,9 @@ class Effect(eqx.Module):
       skipped and reported).
     - ``acts_on``: ``"mechanism"`` (changes what the machine does; kept when the model is used
       for control) or ``"measurement"`` (changes only how it is observed; dropped for control).
+    - ``draw``: ``(rng: numpy.random.Generator) -> Float[np.ndarray, "k"]``, the random
+      direction of the true parameters a simulation hides (library units; its size is rescaled
+      to the requested magnitude); ``None``: ``rng.standard_normal(k) · scale``.
     - ``doc``: the physics, from the function's docstring.
     """
 
@@ -68,6 +78,16 @@ class Effect(eqx.Module):
     requires: tuple[str, ...] = eqx.field(static=True, default=())
     acts_on: Literal["mechanism", "measurement"] = eqx.field(static=True, default="mechanism")
     doc: str = eqx.field(static=True, default="")
+    draw: Callable[[np.random.Generator], np.ndarray] | None = eqx.field(static=True, default=None)
+
+    def random_direction(self, rng: np.random.Generator) -> Float[np.ndarray, " k"]:
+        """A random direction of the true parameters (library units) for a simulation."""
+        if self.draw is None:
+            return rng.standard_normal(self.n_params) * np.asarray(self.scale)
+        d = np.asarray(self.draw(rng), dtype=np.float64)
+        if d.shape != (self.n_params,):
+            raise ValueError(f"effect {self.name!r}: draw must return {self.n_params} values, got {d.shape}")
+        return d
 
     def __call__(self, theta: Float[Array, " k"], data: Any, state: Any) -> Any:
         return self.apply(theta, data, state)
@@ -83,9 +103,11 @@ def register_effect(
     report_factor: float | Sequence[float] = 1.0,
     requires: Sequence[str] = (),
     acts_on: Literal["mechanism", "measurement"] = "mechanism",
+    draw: Callable[[np.random.Generator], np.ndarray] | None = None,
 ) -> Callable[[Callable[..., Any]], Effect]:
     """Decorator: register ``apply(theta, data, state) -> state`` as effect ``name`` of
-    ``model``. Returns the :class:`Effect`. Re-registering a name replaces it."""
+    ``model`` (the fields are those of :class:`Effect`). Returns the :class:`Effect`.
+    Re-registering a name replaces it."""
     if n_params < 1:
         raise ValueError(f"effect {name!r}: n_params must be ≥ 1")
     if acts_on not in ("mechanism", "measurement"):
@@ -111,6 +133,7 @@ def register_effect(
             requires=tuple(requires),
             acts_on=acts_on,
             doc=(fn.__doc__ or "").strip(),
+            draw=draw,
         )
         _REGISTRY.setdefault(model, {})[name] = effect
         return effect
@@ -121,6 +144,11 @@ def register_effect(
 def effects_for(model: str) -> tuple[Effect, ...]:
     """Every effect registered for ``model``, in registration order."""
     return tuple(_REGISTRY.get(model, {}).values())
+
+
+def effect_names(model: str) -> tuple[str, ...]:
+    """Names of the effects registered for ``model``, in registration order."""
+    return tuple(_REGISTRY.get(model, {}))
 
 
 def get_effect(model: str, name: str) -> Effect:

@@ -1,0 +1,234 @@
+"""Result types of the discrepancy workflow: the fitted (augmented) model, one candidate's
+scores, a skipped candidate, and the diagnosis report with its JSON form (the contract of
+``stewart-jax diagnose --json``).
+
+The statistics behind the fields are those of :mod:`~stewart_jax.discrepancy._statistics`
+(χ²/F tests of nested models, BIC, the predictive held-out χ²) and the absorption of
+:mod:`~stewart_jax.discrepancy._subspace`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, NamedTuple
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import Array, Float
+
+from ._registry import AbstractDiscrepancyModel, Effect
+from ._statistics import WhereAnalysis
+
+
+class FittedModel(eqx.Module):
+    """A calibrated model, possibly augmented by effects (the workflow's step 3).
+
+    - ``model``: the :class:`AbstractDiscrepancyModel` (its base parameters are replaced by
+      ``base`` here).
+    - ``effects``: the effects added (static).
+    - ``base``: ``Float[Array, "p"]``, fitted base parameters (library units).
+    - ``thetas``: per effect ``Float[Array, "k_e"]``, fitted effect parameters (library units).
+    """
+
+    model: AbstractDiscrepancyModel
+    effects: tuple[Effect, ...] = eqx.field(static=True)
+    base: Float[Array, " p"]
+    thetas: tuple[Float[Array, " _"], ...]
+
+    def predict(self, data: Any) -> Float[Array, "m k"]:
+        """Predicted observations for measured data (all effects)."""
+        return self.model.predict(self.base, self.effects, self.thetas, data)
+
+    def commanded(self, data: Any) -> Float[Array, "m k"]:
+        """What to command to reach the rows of ``data`` (6-PSS: readings for target poses in
+        ``data.poses``, with the approach directions / temperature / time the effects need).
+        Measurement-side effects are dropped."""
+        have = self.model.columns(data)
+        for e in self.effects:
+            missing = [c for c in e.requires if c not in have] if e.acts_on == "mechanism" else []
+            if missing:
+                raise ValueError(f"the model includes {e.name!r}, which needs {missing} to command a move")
+        return self.model.predict(self.base, self.effects, self.thetas, data, control=True)
+
+    def effect_report(self) -> list[dict[str, Any]]:
+        """Per effect: name, parameters in report units, unit, side (JSON form)."""
+        return [
+            {
+                "effect": e.name,
+                "params": (np.asarray(t) * np.asarray(e.report_factor)).tolist(),
+                "unit": e.unit,
+                "acts_on": e.acts_on,
+            }
+            for e, t in zip(self.effects, self.thetas, strict=True)
+        ]
+
+
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """One candidate effect's scores on one data set.
+
+    - ``effect``: its name.
+    - ``score``: ``BIC(base) − BIC(base + effect)`` (higher is better; > 0 favours the effect).
+    - ``bic``: BIC of base + effect.
+    - ``delta_chi2``: drop of the whitened training χ² from the base fit.
+    - ``dof``: degrees of freedom of the likelihood-ratio test (= ``identifiable_rank``).
+    - ``p_value``: p of "the effect explains nothing" (χ², or F with σ estimated).
+    - ``significant``: ``p_value`` below ``alpha / K`` (Bonferroni over the testable candidates).
+    - ``heldout_chi2``, ``heldout_p``: predictive χ² of the held-out residuals of base + effect,
+      and its p-value.
+    - ``heldout_rms``: held-out residual RMS of base + effect (the model's report unit).
+    - ``absorbed_fraction``, ``identifiable_rank``, ``sines``: see :class:`Absorption`.
+    - ``converged``: the fit converged.
+    - ``params``: fitted effect parameters in report units (``unit``).
+    """
+
+    effect: str
+    score: float
+    bic: float
+    delta_chi2: float
+    dof: int
+    p_value: float
+    significant: bool
+    heldout_chi2: float
+    heldout_p: float
+    heldout_rms: float
+    absorbed_fraction: float
+    identifiable_rank: int
+    sines: tuple[float, ...]
+    converged: bool
+    params: list[float]
+    unit: str
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["sines"] = list(self.sines)
+        d["min_sine"] = min(self.sines) if self.sines else 0.0
+        return d
+
+
+class SkippedEffect(NamedTuple):
+    """A candidate left out of the analysis and why (a missing data column, too few rows)."""
+
+    effect: str
+    reason: str
+
+    def to_dict(self) -> dict[str, str]:
+        return {"effect": self.effect, "reason": self.reason}
+
+
+@dataclasses.dataclass(frozen=True)
+class DiagnosisReport:
+    """Result of :func:`~stewart_jax.discrepancy.diagnose`; ``to_dict()`` gives the JSON of
+    ``stewart-jax diagnose``. Residual sizes are in the model's report unit
+    (``fitted.model.report_unit``; µm for the 6-PSS model).
+
+    - ``model``: the model's registry name.
+    - ``detected``, ``detect_statistic``, ``detect_dof``, ``detect_p_value``: the held-out test
+      of the base model against the noise alone.
+    - ``named_effect``: the named candidate (``"none"`` if nothing is detected or significant);
+      ``indistinguishable_from``: candidates the data cannot reject against it;
+      ``additional_effects``: candidates that explain more on top of it.
+    - ``ranking``: every :class:`Candidate`, identifiable ones first, by score.
+    - ``absorbed``: candidates the base parameters absorb completely; ``skipped``: the
+      :class:`SkippedEffect` list.
+    - ``gap_before``, ``gap_after``: held-out residual RMS of the base and the augmented model.
+    - ``noise_floor``: RMS of the noise alone; ``noise_floor_predictive``: including the
+      prediction error of the fitted base parameters.
+    - ``derived_before``, ``derived_after``: RMS of the model's derived errors (6-PSS: pose
+      errors, µm and ″) by name.
+    - ``where_before``, ``where_after``: :class:`WhereAnalysis` of the held-out residuals.
+    - ``base_chi2``, ``base_dof``: the base fit's training χ² and residual dof.
+    - ``noise_estimated``, ``noise_scale``: σ taken from the base fit, and the fitted σ / model σ.
+    - ``alpha``: false-alarm level; ``n_train``, ``n_test``: rows.
+    - ``fitted``, ``base_fitted``: the augmented and the base :class:`FittedModel`.
+    - ``residuals_before``, ``residuals_after``: ``(m_te, k)`` held-out residuals (report unit).
+    - ``test_factors``: the held-out rows' factors (name → ``(m_te, k)``).
+    - ``notes``: warnings (non-converged base fit, rank-deficient base).
+    """
+
+    model: str
+    detected: bool
+    detect_statistic: float
+    detect_dof: float
+    detect_p_value: float
+    named_effect: str
+    indistinguishable_from: list[str]
+    additional_effects: list[str]
+    ranking: list[Candidate]
+    absorbed: list[str]
+    skipped: list[SkippedEffect]
+    gap_before: float
+    gap_after: float
+    noise_floor: float
+    noise_floor_predictive: float
+    derived_before: dict[str, float]
+    derived_after: dict[str, float]
+    where_before: WhereAnalysis
+    where_after: WhereAnalysis
+    base_chi2: float
+    base_dof: int
+    noise_estimated: bool
+    noise_scale: float
+    alpha: float
+    n_train: int
+    n_test: int
+    fitted: FittedModel
+    base_fitted: FittedModel
+    residuals_before: np.ndarray
+    residuals_after: np.ndarray
+    test_factors: dict[str, np.ndarray]
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        unit = self.fitted.model.report_unit
+        return _jsonable(
+            {
+                "model": self.model,
+                "detected": self.detected,
+                "named_effect": self.named_effect,
+                "indistinguishable_from": self.indistinguishable_from,
+                "ranking": [c.to_dict() for c in self.ranking],
+                "gap_before": self.gap_before,
+                "gap_after": self.gap_after,
+                "noise_floor": self.noise_floor,
+                "noise_floor_predictive": self.noise_floor_predictive,
+                "gap_unit": unit,
+                "additional_effects": self.additional_effects,
+                "absorbed": self.absorbed,
+                "skipped": [s.to_dict() for s in self.skipped],
+                "detection": {
+                    "test": "F (σ estimated)" if self.noise_estimated else "chi2 (σ given)",
+                    "statistic": self.detect_statistic,
+                    "dof": self.detect_dof,
+                    "p_value": self.detect_p_value,
+                    "alpha": self.alpha,
+                },
+                "base_fit": {"chi2": self.base_chi2, "dof": self.base_dof, "noise_scale": self.noise_scale},
+                "derived_error_rms_before": self.derived_before,
+                "derived_error_rms_after": self.derived_after,
+                "where_before": self.where_before.to_dict(),
+                "where_after": self.where_after.to_dict(),
+                "augmented_model": {
+                    "base_params": np.asarray(self.fitted.base).tolist(),
+                    "effects": self.fitted.effect_report(),
+                },
+                "n_train": self.n_train,
+                "n_test": self.n_test,
+                "notes": self.notes,
+            }
+        )
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, float | np.floating):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer | np.bool_):
+        return x.item()
+    return x
