@@ -18,7 +18,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._math import rotation_matrix
-from .._units import ARCSEC, COMPONENTS, UM, error_in_report_units
+from .._units import ARCSEC, COMPONENTS, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._pss import Geometry, geometry_from_params
 from ._registry import AbstractDiscrepancyModel
@@ -164,9 +164,11 @@ class PSSModel(AbstractDiscrepancyModel):
         residual implies."""
         jac = np.asarray(self.pose_jacobians(base, data.poses))
         dp = np.linalg.solve(jac, np.asarray(residuals)[..., None])[..., 0]
+        # NOTE: × (1/UM) rather than error_in_report_units' ÷ UM: the published reports
+        # round the same way as before (the two differ in the last bit).
         units = ("µm",) * 3 + ("″",) * 3
-        e = error_in_report_units(dp)
-        return {f"{n}_{u}": e[:, k] for k, (n, u) in enumerate(zip(COMPONENTS, units, strict=True))}
+        scale = np.array([1 / UM] * 3 + [1 / ARCSEC] * 3)
+        return {f"{n}_{u}": dp[:, k] * scale[k] for k, (n, u) in enumerate(zip(COMPONENTS, units, strict=True))}
 
     def columns(self, data: CalibrationData) -> frozenset[str]:
         return frozenset(
