@@ -44,7 +44,7 @@ LABELS = ("none",) + EFFECTS
 
 def _control_rms(truth, fitted, rng):
     """RMS control error (µm over dx,dy,dz; ″ over φ,θ,ψ) at 42 random validation poses."""
-    half = np.array([sj.TRAVEL_MM] * 3 + [sj.TRAVEL_RAD] * 3)
+    half = np.array([sj.calibration.TRAVEL_MM] * 3 + [sj.calibration.TRAVEL_RAD] * 3)
     targets = rng.uniform(-half, half, (42, 6))
     cond = dc.random_conditions(rng, 42)
     data = sj.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)

@@ -59,7 +59,7 @@ def test_pss_strokes_matches_library_ik_and_leg_constraint():
     n = np.stack([np.cos(ang[:, 0]) * np.sin(ang[:, 1]), -np.sin(ang[:, 0]), np.cos(ang[:, 0]) * np.cos(ang[:, 1])], -1)
     dl = rng.uniform(-0.05, 0.05, (30, 6))
     q = np.asarray(dc.pss_strokes(up, lo, v0, jnp.asarray(n), jnp.asarray(dl), jnp.asarray(poses)))
-    a = np.asarray(sj.upper_joints_in_base(g, jnp.asarray(poses)))
+    a = np.asarray(sj.mechanism.upper_joints_in_base(g, jnp.asarray(poses)))
     leg = a - np.asarray(lo) - q[..., None] * n
     length = np.linalg.norm(np.asarray(up) + np.asarray(v0) - np.asarray(lo), axis=-1) + dl
     np.testing.assert_allclose(np.linalg.norm(leg, axis=-1), length, rtol=0, atol=1e-10)
