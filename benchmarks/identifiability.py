@@ -135,7 +135,8 @@ def main(argv=None) -> int:
             plans["paper8 (8 random poses, new draw per seed)"] = {"m": 8, "targets": per_seed, "fixed": False}
             plans["random 8 (one fixed paper-style draw)"] = {"m": 8, "targets": per_seed[0], "fixed": True}
         else:
-            plans["plan120 (Wang et al. §4)"] = {"m": 120, "targets": np.asarray(sj.calibration.sampling_plan_120()), "fixed": True}
+            plan120 = np.asarray(sj.calibration.sampling_plan_120())
+            plans["plan120 (Wang et al. §4)"] = {"m": 120, "targets": plan120, "fixed": True}
         for criterion in ("O1", "O3"):
             t0 = time.perf_counter()
             plan = sj.calibration.plan_poses_optimal(nominal, candidates, m, criterion)
@@ -149,7 +150,8 @@ def main(argv=None) -> int:
     for name, p in plans.items():
         targets = p["targets"] if not p["fixed"] else np.broadcast_to(p["targets"], (args.seeds, *p["targets"].shape))
         pose_sets = [targets[i] for i in range(args.seeds)] if not p["fixed"] else [p["targets"]]
-        reports = [sj.calibration.identifiability_report(actual, jnp.asarray(t), sigma_um, sigma_arcsec) for t in pose_sets]
+        report = sj.calibration.identifiability_report
+        reports = [report(actual, jnp.asarray(t), sigma_um, sigma_arcsec) for t in pose_sets]
         pred = predicted([r.param_cov for r in reports], M, args.draws, rng)
         nominal_reports = [sj.calibration.identifiability_report(nominal, jnp.asarray(t)) for t in pose_sets[:50]]
         mc = monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigma_arcsec)

@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
+
 # ahead-of-time compilation (``.lower().compile()``) needs the jitted runners themselves
 from stewart_jax.calibration._methods import _run_batch, _run_one, make_solver  # noqa: E402
 from stewart_jax.study import simulate_trials, trial_keys  # noqa: E402

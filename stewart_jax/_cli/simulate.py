@@ -39,7 +39,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    p = subparsers.add_parser("simulate", help="write simulated measured data (the Table 2 study of Wang et al. 2018) as CSV")
+    p = subparsers.add_parser(
+        "simulate", help="write simulated measured data (the Table 2 study of Wang et al. 2018) as CSV"
+    )
     p.add_argument("--out", required=True, help="output CSV (q1..q6, x..rz; plus target_* and true_*)")
     p.add_argument("--plan", choices=("paper8", "plan120", "validation42"), default="paper8")
     p.add_argument("--seed", type=int, default=0)

@@ -22,7 +22,8 @@ def run(args: argparse.Namespace) -> int:
         options = {m: {"max_evaluations": args.max_evaluations} for m in methods
                    if METHOD_REGISTRY[m].kind != "least_squares"}
     print(
-        f"Table 2 simulation study (Wang et al. 2018): plan {args.plan}, {args.trials} trials, σ = {args.sigma_um} µm / "
+        f"Table 2 simulation study (Wang et al. 2018): plan {args.plan}, {args.trials} trials, "
+        f"σ = {args.sigma_um} µm / "
         f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
         file=sys.stderr,
     )

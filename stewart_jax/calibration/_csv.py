@@ -31,7 +31,8 @@ def write_csv(
     data: CalibrationData,
     extra: Mapping[str, np.ndarray] | None = None,
 ) -> None:
-    """Write ``data`` (mm, rad inside) as measurement CSV (``docs/conventions.md``) (mm, degrees). ``extra`` adds columns
+    """Write ``data`` (mm, rad inside) as measurement CSV (mm, degrees; ``docs/conventions.md``).
+    ``extra`` adds columns
     (e.g. the true poses of a simulation), each an array of length m or shape (m, k) with
     names given as ``name`` or a tuple of k names via a mapping key ``"a,b,c"``."""
     q = np.asarray(data.strokes, dtype=np.float64)

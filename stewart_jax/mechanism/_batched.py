@@ -3,7 +3,8 @@ fixed-step Newton FK (any mechanism).
 
 Same mathematics as the 6-PSS inverse kinematics of Wang et al. (2018) (eq. 4 in its
 cancellation-free form) and the forward kinematics (eqs. 5–6 by Newton's method),
-arranged for throughput on CPU. ``benchmarks/kinematics.py`` measures these against :func:`~stewart_jax.solve_inverse_kinematics` /
+arranged for throughput on CPU. ``benchmarks/kinematics.py`` measures these against
+:func:`~stewart_jax.solve_inverse_kinematics` /
 :func:`~stewart_jax.forward_kinematics` and NumPy (results in ``benchmarks/results/``).
 
 What the measurements say (2-core AMD EPYC, float64, XLA:CPU of jax 0.10):
@@ -68,7 +69,7 @@ def _sincos_exact(x):
 
 
 def _rotation_rows(angles, sincos):
-    """The nine entries of ``T = Rz(ψ)·Ry(θ)·Rx(φ)`` (eq. 1, with the sign of its (2,2) element corrected), row-major."""
+    """The nine entries of ``T = Rz(ψ)·Ry(θ)·Rx(φ)`` (eq. 1, its (2,2) sign corrected), row-major."""
     sf, cf = sincos(angles[0])
     st, ct = sincos(angles[1])
     sp, cp = sincos(angles[2])

@@ -74,21 +74,6 @@ def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, b
     return state._replace(generation=state.generation + 1)
 
 
-def check_levy_cuckoo(solver) -> None:
-    """Validate the hyper-parameters CS, SMCS and VSA-SMCS share (those each one has)."""
-    if not solver.n_nests >= 2:
-        raise ValueError(f"{type(solver).__name__}.n_nests must be at least 2, got {solver.n_nests!r}")
-    for name, ok, req in (
-        ("pa", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
-        ("lu", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
-        ("alpha", lambda v: v > 0.0, "> 0"),
-        ("beta", lambda v: 0.0 < v <= 2.0, "a Lévy exponent in (0, 2]"),
-        ("n_worst", lambda v: 1 <= v <= solver.n_nests - 1, f"in [1, n_nests − 1 = {solver.n_nests - 1}]"),
-    ):
-        if hasattr(solver, name) and not ok(getattr(solver, name)):
-            raise ValueError(f"{type(solver).__name__}.{name} must be {req}, got {getattr(solver, name)!r}")
-
-
 class CuckooSearch(AbstractPopulationSolver):
     """Cuckoo search (Yang & Deb 2009).
 
@@ -111,9 +96,6 @@ class CuckooSearch(AbstractPopulationSolver):
     epsilon: float = 0.0
     stall_generations: int = 100
     stall_rtol: float = 1e-6
-
-    def __check_init__(self):
-        check_levy_cuckoo(self)
 
     def step(self, fn, state, lower, upper, key):
         return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)

@@ -178,7 +178,8 @@ class AbstractPopulationSolver(AbstractSolver):
     stall_rtol: eqx.AbstractVar[float]
 
     def __check_init__(self):
-        _check(self, "n_nests", self.n_nests >= 2, "at least 2 nests")
+        _check(self, "n_nests", self.n_nests >= 2, "at least 2")
+        _check_shared(self)
         _check(self, "epsilon", self.epsilon >= 0, ">= 0")
         _check(self, "stall_generations", self.stall_generations >= 1, ">= 1")
         _check(self, "stall_rtol", self.stall_rtol >= 0, ">= 0")
@@ -206,6 +207,19 @@ def _check(solver, field: str, ok, requirement: str) -> None:
     """Raise at construction when a hyper-parameter is out of range, naming it."""
     if not bool(ok):
         raise ValueError(f"{type(solver).__name__}.{field} must be {requirement}, got {getattr(solver, field)!r}")
+
+
+def _check_shared(solver) -> None:
+    """The hyper-parameters the cuckoo-family solvers share, checked where a solver has them."""
+    for name, ok, req in (
+        ("pa", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
+        ("lu", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
+        ("alpha", lambda v: v > 0.0, "> 0"),
+        ("beta", lambda v: 0.0 < v <= 2.0, "a Lévy exponent in (0, 2]"),
+        ("n_worst", lambda v: 1 <= v <= solver.n_nests - 1, f"in [1, n_nests − 1 = {solver.n_nests - 1}]"),
+    ):
+        if hasattr(solver, name) and not ok(getattr(solver, name)):
+            raise ValueError(f"{type(solver).__name__}.{name} must be {req}, got {getattr(solver, name)!r}")
 
 
 def n_steps_for_budget(solver: AbstractSolver, n_dim: int, max_evaluations: int) -> int:

@@ -1,7 +1,8 @@
 """``vsa-smcs+lm``: VSA-SMCS for the global phase, Levenberg–Marquardt to polish its best nest.
 
 Global phase: Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope
-secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §2.2–2.3, :mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963) via
+secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §2.2–2.3,
+:mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963) via
 optimistix, :mod:`.levenberg_marquardt`, started from the best nest. The usual
 memetic pattern (a population method to find the basin, a Newton-type method for the last
 digits) — e.g. Moscato P., Cotta C., "A gentle introduction to memetic algorithms",

@@ -38,7 +38,9 @@ class JaxoptLevenbergMarquardt(eqx.Module):
         if not (int(self.max_steps) == self.max_steps and self.max_steps >= 1):
             raise ValueError(f"JaxoptLevenbergMarquardt.max_steps must be a positive integer, got {self.max_steps!r}")
         if not (self.xtol >= 0 and self.gtol >= 0):
-            raise ValueError(f"JaxoptLevenbergMarquardt tolerances must be >= 0, got xtol={self.xtol}, gtol={self.gtol}")
+            raise ValueError(
+                f"JaxoptLevenbergMarquardt tolerances must be >= 0, got xtol={self.xtol}, gtol={self.gtol}"
+            )
         if self.linear_solver not in ("cholesky", "inv", "cg", "lu", "qr"):
             raise ValueError(f"JaxoptLevenbergMarquardt.linear_solver {self.linear_solver!r} is not a jaxopt solver")
 

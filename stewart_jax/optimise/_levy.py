@@ -2,7 +2,8 @@
 
 Mantegna R. N., "Fast, accurate algorithm for numerical simulation of Lévy stable stochastic
 processes", Phys. Rev. E 49(5) (1994) 4677–4683 — as used by Yang & Deb's cuckoo search and
-by Wang et al. (2018), eq. 10 ("Improved cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)).
+by Wang et al. (2018), eq. 10 ("Improved cuckoo calibration method of space telescope secondary
+mirror adjusting mechanism", Infrared and Laser Engineering 47(5)).
 
 ``sp = u / |v|^(1/β)`` with ``u ~ N(0, σ_u²)``, ``v ~ N(0, 1)`` and
 

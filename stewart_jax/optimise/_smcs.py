@@ -11,7 +11,7 @@ clip their own trial points to Ω.
 
 from __future__ import annotations
 
-from ._cuckoo import check_levy_cuckoo, cs_generation
+from ._cuckoo import cs_generation
 from ._driver import AbstractPopulationSolver, population_state
 from ._levy import BETA
 from ._simplex import SimplexCoefficients, simplex_on_worst
@@ -42,9 +42,6 @@ class SMCS(AbstractPopulationSolver):
     epsilon: float = 0.0
     stall_generations: int = 100
     stall_rtol: float = 1e-6
-
-    def __check_init__(self):
-        check_levy_cuckoo(self)
 
     def step(self, fn, state, lower, upper, key):
         nests, fit = simplex_on_worst(fn, state.nests, state.fitness, self.n_worst,

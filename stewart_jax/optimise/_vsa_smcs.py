@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ._cuckoo import check_levy_cuckoo
 from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
 from ._levy import BETA, mantegna_from_normals
 from ._simplex import SimplexCoefficients, simplex_on_worst
@@ -76,7 +75,6 @@ class VSASMCS(AbstractPopulationSolver):
     stall_rtol: float = 1e-6
 
     def __check_init__(self):
-        check_levy_cuckoo(self)
         if not 1.0 <= self.p <= 30.0:
             raise ValueError(f"VSASMCS.p must be in the paper's range [1, 30], got {self.p!r}")
         if not self.sp_1 >= 0.0:
