@@ -16,3 +16,35 @@ def file_backend() -> None:
 def noise_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
+
+
+def geometry_args(p: argparse.ArgumentParser, *, true: bool) -> None:
+    """``--geometry`` (the nominal model) and, for simulations, the true mechanism."""
+    p.add_argument("--geometry", "--nominal", dest="geometry", default="nominal",
+                   help="nominal (model) geometry: a preset (nominal, actual, rubin_camera, rubin_m2, "
+                        "fast_stewart, …) or a JSON/TOML geometry file")
+    if true:
+        p.add_argument("--true", default=None,
+                       help="true geometry (preset or file); default: 'actual' for the paper's 'nominal', "
+                            "else the nominal one perturbed by --perturb-mm")
+        p.add_argument("--perturb-mm", type=float, default=0.5,
+                       help="σ (mm) of the Gaussian error on every parameter of the default true mechanism")
+
+
+def nominal_and_true(args: argparse.Namespace):
+    """The nominal and true mechanisms of ``--geometry``/``--true``/``--perturb-mm``."""
+    import jax
+
+    from ..calibration._simulation import perturbed
+    from ..mechanism._registry import load_mechanism
+
+    nominal = load_mechanism(args.geometry)
+    if args.true is not None:
+        true = load_mechanism(args.true)
+    elif args.geometry == "nominal":
+        true = load_mechanism("actual")
+    else:
+        true = perturbed(nominal, jax.random.fold_in(jax.random.key(args.seed), 1_000_003), args.perturb_mm)
+    if type(nominal) is not type(true):
+        raise ValueError(f"--geometry is a {nominal.family}, --true a {true.family}: give one family")
+    return nominal, true

@@ -15,7 +15,11 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..mechanism._registry import load_mechanism
 
     data = read_csv(args.file)
-    model = pss_model(load_mechanism(args.geometry), args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
+    geometry = load_mechanism(args.geometry)
+    if geometry.family != "6-PSS":
+        raise ValueError(f"the discrepancy workflow has a model for the 6-PSS family; {args.geometry!r} is a "
+                         f"{geometry.family} (its model is not implemented yet)")
+    model = pss_model(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     report = diagnose(
         data,

@@ -7,7 +7,7 @@ import json
 import sys
 
 from ..calibration._methods import METHOD_REGISTRY
-from ._common import file_backend, noise_args
+from ._common import file_backend, geometry_args, noise_args, nominal_and_true
 
 
 def run(args: argparse.Namespace) -> int:
@@ -22,15 +22,17 @@ def run(args: argparse.Namespace) -> int:
         options = {m: {"max_evaluations": args.max_evaluations} for m in methods
                    if METHOD_REGISTRY[m].kind != "least_squares"}
     print(
-        f"Table 2 simulation study (Wang et al. 2018): plan {args.plan}, {args.trials} trials, "
+        f"simulation study (Table 2 protocol of Wang et al. 2018) of {args.geometry}: plan {args.plan}, "
+        f"{args.trials} trials, "
         f"σ = {args.sigma_um} µm / "
         f"{args.sigma_arcsec}″, Ω = nominal ± {args.half_width} mm",
         file=sys.stderr,
     )
+    nominal, actual = nominal_and_true(args)
     result = run_study(
         methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
         args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
-        n_devices=args.devices, first_trial=args.first_trial,
+        n_devices=args.devices, first_trial=args.first_trial, nominal=nominal, actual=actual,
     )
     print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
     print(format_study_table(result, "calibration"))
@@ -42,10 +44,9 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         file_backend()
         from .. import plotting
-        from ..study._study import PAPER_TABLE2
 
         rows = {k: r["calibration"] for k, r in result["rows"].items()}
-        paper = PAPER_TABLE2 if args.plan == "paper8" else None
+        paper = result["paper_table2"] if args.plan == "paper8" else None
         plotting.show(plotting.plot_table_comparison(rows, paper=paper, title=f"{args.plan}, {args.trials} trials"),
                       args.plot)
     return 0
@@ -55,6 +56,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("study", help="the Table 2 simulation study of Wang et al. (2018) over many seeds")
     p.add_argument("--methods", default="lm", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
     p.add_argument("--trials", type=int, default=10)
+    geometry_args(p, true=True)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--plan", choices=("paper8", "plan120"), default="paper8")
     noise_args(p)

@@ -20,7 +20,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float, PRNGKeyArray
+from jaxtyping import Array, ArrayLike, Bool, Float, PRNGKeyArray
 
 from .._math import euler_angles, rotation_matrix
 from ..mechanism._abstract import AbstractMechanism
@@ -36,55 +36,102 @@ PLANS = ("paper8", "plan120", "validation42")
 
 
 def random_poses(
-    key: PRNGKeyArray, n: int, travel_mm: float = TRAVEL_MM, travel_rad: float = TRAVEL_RAD
+    key: PRNGKeyArray, n: int, travel_mm: float = TRAVEL_MM, travel_rad: float = TRAVEL_RAD, *,
+    half: ArrayLike | None = None,
 ) -> Float[Array, "n 6"]:
-    """``n`` poses uniform in the travel box ``±travel_mm`` × ``±travel_rad``."""
-    half = jnp.array([travel_mm] * 3 + [travel_rad] * 3)
+    """``n`` poses uniform in the travel box ``±travel_mm`` × ``±travel_rad``, or in ``±half``
+    (six half-widths, mm and rad, e.g. :func:`reachable_travel` of a mechanism)."""
+    half = jnp.array([travel_mm] * 3 + [travel_rad] * 3) if half is None else jnp.asarray(half, jnp.float64)
     return jax.random.uniform(key, (n, 6), minval=-half, maxval=half, dtype=jnp.float64)
 
 
 def sampling_plan_120(
-    inner_mm: float = 0.5, outer_mm: float = 1.0, angle_rad: float = float(np.deg2rad(0.5))
+    inner_mm: float = 0.5, outer_mm: float = 1.0, angle_rad: float = float(np.deg2rad(0.5)), *,
+    half: ArrayLike | None = None,
 ) -> Float[Array, "120 6"]:
     """The 120-pose sampling plan (Wang et al. 2018, §4, Fig. 5, Table 3;
     our reading of its points, see ``docs/conventions.md``).
 
     15 displacement points — the 8 corners of the ±``inner_mm`` cube, the centre, and
     ±``outer_mm`` on each axis — each combined with the 8 sign combinations of
-    ±``angle_rad`` on (φ, θ, ψ).
+    ±``angle_rad`` on (φ, θ, ψ). With ``half`` (a mechanism's travel, six half-widths) the
+    same plan scaled per axis: corners at ``half/2``, axis points at ``half``, angles ``half/2``
+    (for the paper's ±1 mm / ±1° travel this is the plan above).
     """
-    corners = list(itertools.product((inner_mm, -inner_mm), repeat=3))
-    axes = [tuple(s * outer_mm * (i == k) for k in range(3)) for i in range(3) for s in (1, -1)]
+    if half is None:
+        inner, outer, angle = (inner_mm,) * 3, (outer_mm,) * 3, (angle_rad,) * 3
+    else:
+        h = np.asarray(half, dtype=np.float64)
+        if h.shape != (6,) or not np.all(h > 0):
+            raise ValueError(f"half must be six positive half-widths (mm, rad), got {h.tolist()}")
+        inner, outer, angle = tuple(0.5 * h[:3]), tuple(h[:3]), tuple(0.5 * h[3:])
+    corners = [tuple(sg * v for sg, v in zip(signs, inner, strict=True))
+               for signs in itertools.product((1, -1), repeat=3)]
+    axes = [tuple(s * outer[k] * (i == k) for k in range(3)) for i in range(3) for s in (1, -1)]
     points = corners + [(0.0, 0.0, 0.0)] + axes
-    signs = list(itertools.product((angle_rad, -angle_rad), repeat=3))
+    signs = [tuple(sg * v for sg, v in zip(sgn, angle, strict=True)) for sgn in itertools.product((1, -1), repeat=3)]
     return jnp.array([p + s for p in points for s in signs], dtype=jnp.float64)
 
 
 def validation_poses(
-    key: PRNGKeyArray, n: int = 42, exclude: Float[Array, "k 6"] | None = None
+    key: PRNGKeyArray, n: int = 42, exclude: Float[Array, "k 6"] | None = None, *,
+    half: ArrayLike | None = None,
 ) -> Float[Array, "n 6"]:
-    """``n`` poses uniform in the travel, none on the sampling plan (Wang et al. (2018) §4: 42
-    non-sampling points). A draw within 1e-6 (mm or rad) of an excluded pose is redrawn."""
-    exclude = sampling_plan_120() if exclude is None else exclude
+    """``n`` poses uniform in the travel (or ``±half``), none on the sampling plan (Wang et al.
+    (2018) §4: 42 non-sampling points). A draw within 1e-6 (mm or rad) of an excluded pose is
+    redrawn."""
+    exclude = sampling_plan_120(half=half) if exclude is None else exclude
     out = np.empty((0, 6))
     while out.shape[0] < n:
         key, sub = jax.random.split(key)
-        cand = np.asarray(random_poses(sub, n))
+        cand = np.asarray(random_poses(sub, n, half=half))
         dist = np.min(np.max(np.abs(cand[:, None, :] - np.asarray(exclude)[None]), axis=-1), axis=-1)
         out = np.concatenate([out, cand[dist > 1e-6]])
     return jnp.asarray(out[:n])
 
 
-def plan_poses(plan: str, key: PRNGKeyArray) -> Float[Array, "n 6"]:
+def plan_poses(plan: str, key: PRNGKeyArray, half: ArrayLike | None = None) -> Float[Array, "n 6"]:
     """Target poses of a named plan: ``paper8`` (8 random, §3), ``plan120`` (§4),
-    ``validation42`` (42 random off the plan, §4)."""
+    ``validation42`` (42 random off the plan, §4); inside ``±half`` when given (a mechanism's
+    :func:`reachable_travel`), else the paper's ±1 mm / ±1°."""
     if plan == "paper8":
-        return random_poses(key, 8)
+        return random_poses(key, 8, half=half)
     if plan == "plan120":
-        return sampling_plan_120()
+        return sampling_plan_120(half=half)
     if plan == "validation42":
-        return validation_poses(key, 42)
+        return validation_poses(key, 42, half=half)
     raise ValueError(f"unknown plan {plan!r}; choose one of {PLANS}")
+
+
+def reachable_travel(mechanism: AbstractMechanism, *, iterations: int = 40) -> np.ndarray:
+    """Six half-widths (mm, rad) of a travel box whose corners and axis points the mechanism
+    reaches: its ``travel_half_widths`` (default the paper's ±1 mm / ±1°) scaled by the largest
+    factor s ≤ 1 for which all 64 corners and 12 axis end points are reachable (bisection on s).
+
+    NOTE: a published travel is usually a per-axis limit, not a box: the Rubin camera hexapod
+    reaches each axis's limit alone but none of the box's corners (they need ~34 mm of strut
+    reading against ±14.1 mm). Plans and random poses drawn from the scaled box stay reachable
+    for a reachable set that contains the box's convex hull of corners, which holds for these
+    small travels; the simulation still checks every pose (forward kinematics status).
+    """
+    half = mechanism.travel_half_widths
+    half = np.array([TRAVEL_MM] * 3 + [TRAVEL_RAD] * 3) if half is None else np.asarray(half, np.float64)
+    corners = np.array(list(itertools.product((1.0, -1.0), repeat=6)))
+    axes = np.concatenate([np.eye(6), -np.eye(6)])
+    unit = np.concatenate([corners, axes]) * half
+
+    def ok(scale: float) -> bool:
+        return bool(np.all(np.asarray(mechanism.solve_inverse_kinematics(jnp.asarray(scale * unit)).reachable)))
+
+    if ok(1.0):
+        return half
+    lo, hi = 0.0, 1.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    if lo == 0.0:
+        raise ValueError(f"{mechanism.family} mechanism: no pose box around the zero pose is reachable")
+    return lo * half
 
 
 class LaserTracker(eqx.Module):
@@ -96,6 +143,26 @@ class LaserTracker(eqx.Module):
 
     balls: Float[Array, "k 3"]
     sigma_mm: float = 3e-3
+
+
+def perturbed(mechanism: AbstractMechanism, key: PRNGKeyArray, sigma_mm: float) -> AbstractMechanism:
+    """A "true" mechanism for a simulation: every calibration parameter moved by an independent
+    Gaussian error of σ = ``sigma_mm`` (mm) from ``mechanism``'s."""
+    if not sigma_mm >= 0:
+        raise ValueError(f"sigma_mm must be >= 0 (mm), got {sigma_mm}")
+    u = mechanism.params
+    return mechanism.with_params(u + sigma_mm * jax.random.normal(key, u.shape, dtype=jnp.float64))
+
+
+def tracker_for(mechanism: AbstractMechanism, sigma_um: float = 3.0) -> LaserTracker:
+    """Three target balls on the moving platform, 120° apart on the circle of its joints and at
+    their mean height in frame A (for the paper's mechanism: :func:`default_tracker`'s layout)."""
+    layout = mechanism.tracker_layout()
+    if layout is not None:
+        return default_tracker(*layout, sigma_um=sigma_um)
+    joints = np.asarray(mechanism.moving_joints(jnp.zeros(6))) - np.asarray(mechanism.v0)
+    radius = float(np.mean(np.linalg.norm(joints[:, :2], axis=-1)))
+    return default_tracker(radius, float(np.mean(joints[:, 2])), sigma_um)
 
 
 def default_tracker(

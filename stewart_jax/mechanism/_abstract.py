@@ -90,6 +90,11 @@ class AbstractMechanism(eqx.Module):
         ``None`` where it is not known. Simulation and pose plans stay inside it."""
         return None
 
+    def tracker_layout(self) -> tuple[float, float] | None:
+        """``(radius, height)`` (mm, in frame A) of the laser-tracker target balls a simulated
+        measurement uses, or ``None`` for three balls on the circle of the moving joints."""
+        return None
+
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm)."""
         raise NotImplementedError(f"{type(self).__name__} does not expose its moving joints")

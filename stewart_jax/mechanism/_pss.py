@@ -82,6 +82,10 @@ class PSSMechanism(AbstractMechanism):
         """Wang et al. (2018) §4: ±1 mm and ±1° on every pose component."""
         return np.array([1.0, 1.0, 1.0] + [float(np.deg2rad(1.0))] * 3)
 
+    def tracker_layout(self) -> tuple[float, float]:
+        """The paper gives no ball layout; ours: 100 mm from A's z axis, 90 mm above its origin."""
+        return (100.0, 90.0)
+
     def with_params(self, params: Float[Array, "36"]) -> PSSMechanism:
         return geometry_from_params(params, self.v0)
 

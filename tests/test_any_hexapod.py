@@ -1,0 +1,78 @@
+"""The pipeline for any mechanism family: travel-scaled plans, tracker, perturbed truths, and the
+command line end to end for a strut hexapod given as a geometry file."""
+
+import json
+
+import jax
+import numpy as np
+import pytest
+
+import stewart_jax as sj
+from stewart_jax._cli import main
+from stewart_jax.calibration import perturbed, reachable_travel, sampling_plan_120, tracker_for
+from stewart_jax.mechanism import preset, presets
+
+
+def test_paper_travel_and_plans_are_unchanged():
+    g = sj.nominal_geometry()
+    half = reachable_travel(g)
+    np.testing.assert_array_equal(half, [1.0, 1.0, 1.0] + [np.deg2rad(1.0)] * 3)
+    np.testing.assert_array_equal(sampling_plan_120(half=half), sampling_plan_120())
+    key = jax.random.key(4)
+    np.testing.assert_array_equal(sj.plan_poses("paper8", key, half), sj.plan_poses("paper8", key))
+    np.testing.assert_array_equal(tracker_for(g).balls, sj.calibration.default_tracker().balls)
+
+
+@pytest.mark.parametrize("name", presets())
+def test_reachable_travel_is_reachable_and_inside_the_published_one(name):
+    m = preset(name)
+    half = reachable_travel(m)
+    published = m.travel_half_widths
+    assert np.all(half <= published + 1e-15) and np.all(half > 0)
+    plan = sampling_plan_120(half=half)
+    assert bool(np.all(np.asarray(m.solve_inverse_kinematics(plan).reachable)))
+    poses = sj.random_poses(jax.random.key(0), 256, half=half)
+    assert bool(np.all(np.asarray(m.solve_inverse_kinematics(poses).reachable)))
+    # the bisection stops at the edge: 1 % more travel leaves some corner unreachable, unless the
+    # whole published travel was reachable
+    if np.any(half < published):
+        corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * 6)).reshape(6, -1).T * half * 1.01
+        assert not bool(np.all(np.asarray(m.solve_inverse_kinematics(corners).reachable)))
+
+
+def test_perturbed_truth_statistics():
+    m = preset("rubin_m2")
+    assert np.array_equal(perturbed(m, jax.random.key(0), 0.0).params, m.params)
+    d = np.asarray(perturbed(m, jax.random.key(1), 0.5).params - m.params)
+    # 42 draws of N(0, 0.25): the sample σ lies within 0.3–0.7 with probability > 1 − 1e-6
+    assert 0.3 < d.std() < 0.7
+    with pytest.raises(ValueError, match="sigma_mm"):
+        perturbed(m, jax.random.key(0), -1.0)
+
+
+def test_strut_hexapod_file_through_the_command_line(tmp_path, capsys):
+    geo, csv, true_json = tmp_path / "m2.json", tmp_path / "m2.csv", tmp_path / "true.json"
+    cal_json, out_geo, hexkins = tmp_path / "cal.json", tmp_path / "cal_geo.json", tmp_path / "m2.hal"
+    assert main(["export", "rubin_m2", "--out", str(geo)]) == 0
+    assert main(["simulate", "--geometry", str(geo), "--plan", "plan120", "--tracker", "--seed", "3",
+                 "--out", str(csv), "--out-true", str(true_json)]) == 0
+    assert main(["calibrate", str(csv), "--geometry", str(geo), "--method", "lm", "--sigma-um", "3",
+                 "--json", str(cal_json), "--out-geometry", str(out_geo)]) == 0
+    res = json.loads(cal_json.read_text())
+    assert res["status"] == "success" and len(res["params"]) == 42
+    nominal, true, calibrated = (sj.load_mechanism(p) for p in (geo, true_json, out_geo))
+    assert calibrated.family == "6-UPS"
+    np.testing.assert_array_equal(calibrated.params, res["params"])
+    # the calibrated model commands the true mechanism far better than the nominal one, at
+    # poses it was not calibrated on
+    val = sj.validation_poses(jax.random.key(9), 42, half=reachable_travel(nominal))
+    before = np.abs(np.asarray(sj.control_error(nominal, true, val).errors)).max()
+    after = np.abs(np.asarray(sj.control_error(calibrated, true, val).errors)).max()
+    assert after < 0.05 * before, (before, after)
+    assert main(["export", str(out_geo), "--format", "genhexkins", "--out", str(hexkins)]) == 0
+    assert hexkins.read_text().count("setp genhexkins.") == 36
+    capsys.readouterr()
+    assert main(["diagnose", str(csv), "--geometry", str(geo)]) == 2
+    assert "6-UPS" in capsys.readouterr().err
+    assert main(["export", "nominal", "--format", "genhexkins"]) == 2
+    assert "genhexkins models struts" in capsys.readouterr().err
