@@ -53,3 +53,13 @@ from ._ups import (
     rubin_camera as rubin_camera,
     rubin_m2 as rubin_m2,
 )
+from ._workspace import (
+    MAX_TRAVEL_RAYS as MAX_TRAVEL_RAYS,
+    MaxTravel as MaxTravel,
+    RayExtents as RayExtents,
+    fibonacci_sphere as fibonacci_sphere,
+    max_travel as max_travel,
+    orientation_envelope as orientation_envelope,
+    translation_envelope as translation_envelope,
+    workspace_along_rays as workspace_along_rays,
+)
