@@ -54,6 +54,7 @@ MAX_TRAVEL_RAYS = ("+x", "-x", "+y", "-y", "+z", "-z", "+φ", "-φ", "+θ", "-θ
 """The rays of :func:`max_travel`, in the order of ``MaxTravel.rays``."""
 
 _UNIT_RTOL = 1e-6
+_PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
 
 class RayExtents(NamedTuple):
@@ -180,7 +181,7 @@ def _rays(mechanism, centre, directions, max_extent, n_scan: int, tol: float, n_
             max_extent=max_extent,
         )
 
-    return jax.vmap(one_ray)(directions, max_extent)
+    return jax.vmap(one_ray)(directions, max_extent)._replace(centre=centre)
 
 
 def _n_halvings(n_scan: int, tol: float, max_iter: int) -> int:
@@ -208,6 +209,7 @@ def translation_envelope(
     *,
     orientation: ArrayLike = (0.0, 0.0, 0.0),
     translation: ArrayLike = (0.0, 0.0, 0.0),
+    plane: str | None = None,
     max_extent: float | None = None,
     n_scan: int = DEFAULT_N_SCAN,
     tol: float = DEFAULT_TOL,
@@ -215,11 +217,22 @@ def translation_envelope(
 ) -> RayExtents:
     """The translational workspace at a fixed ``orientation`` ``(φ, θ, ψ)`` (rad): extents (mm)
     along ``n_directions`` Fibonacci-sphere directions in ``(x, y, z)`` from ``translation``
-    (mm). ``max_extent`` (mm) defaults to :data:`DEFAULT_TRAVEL_FACTOR` times the largest
-    published translation half-width of the mechanism."""
+    (mm), or, with ``plane`` one of ``"xy"``, ``"xz"``, ``"yz"``, along ``n_directions``
+    equally spaced directions in that plane (a section through the centre; the angle runs from
+    the plane's first axis towards its second). ``max_extent`` (mm) defaults to
+    :data:`DEFAULT_TRAVEL_FACTOR` times the largest published translation half-width of the
+    mechanism."""
     n = _check_count(n_directions, "n_directions")
     dirs = np.zeros((n, 6))
-    dirs[:, :3] = fibonacci_sphere(n)
+    if plane is None:
+        dirs[:, :3] = fibonacci_sphere(n)
+    elif plane in _PLANES:
+        a, b = _PLANES[plane]
+        alpha = 2.0 * np.pi * np.arange(n) / n
+        dirs[:, a] = np.cos(alpha)
+        dirs[:, b] = np.sin(alpha)
+    else:
+        raise ValueError(f"plane must be None (the whole sphere) or one of {sorted(_PLANES)}, got {plane!r}")
     centre = _centre(translation, orientation)
     if max_extent is None:
         max_extent = _default_extent(mechanism, slice(0, 3), "mm")
