@@ -6,6 +6,8 @@
 - :func:`forward_kinematics` — one batched Newton solve with per-pose status for every family.
 - Families and presets are registries (:func:`register_family`, :func:`register_preset`);
   :func:`load_mechanism` reads a preset name or a JSON/TOML geometry file naming its family.
+- :func:`workspace_along_rays`, :func:`translation_envelope`, :func:`orientation_envelope`,
+  :func:`max_travel` — the reachable workspace under the mechanism's limits, along rays.
 """
 
 from ._abstract import AbstractMechanism as AbstractMechanism, IKSolution as IKSolution

@@ -26,7 +26,10 @@ shorter than ``max_extent/n_scan`` between two scan points can be missed. The 6-
 mm and rad, so a direction is a unit vector of the numbers as given: translation-only and
 rotation-only rays (:func:`translation_envelope`, :func:`orientation_envelope`,
 :func:`max_travel`) keep the units apart. Rotation rays are straight lines in the Euler angles
-``(φ, θ, ψ)`` of ``T = Rz(ψ)·Ry(θ)·Rx(φ)``.
+``(φ, θ, ψ)`` of ``T = Rz(ψ)·Ry(θ)·Rx(φ)``. The workspace is that of the model's margin only:
+a family without stroke limits (the 6-PSS sliders of Wang et al. 2018, a 6-UPS built without
+limits) is unbounded along some rays, which then report ``max_extent``; collisions are not
+modelled.
 """
 
 from __future__ import annotations
@@ -66,8 +69,8 @@ class RayExtents(NamedTuple):
     - ``hit_max``: ``Bool[Array, "n"]``, every scanned pose up to ``max_extent`` is reachable;
       ``extent == max_extent`` there and no limit was found.
     - ``binding_leg``: ``Int[Array, "n"]``, the leg (0–5) with the smallest margin just beyond
-      the extent (the leg whose limit ends the ray); −1 where ``hit_max`` or the centre is
-      unreachable.
+      the extent (the leg whose limit ends the ray; of legs meeting their limits together, the
+      lowest index); −1 where ``hit_max`` or the centre is unreachable.
     - ``strokes``: ``Float[Array, "n 6"]``, the actuator readings at the extent (mm).
     - ``margin``: ``Float[Array, "n 6"]``, the legs' margins at the extent (≥ 0; the binding
       leg's is ≈ 0).
