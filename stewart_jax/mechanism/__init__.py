@@ -6,6 +6,8 @@
 - :func:`forward_kinematics` — one batched Newton solve with per-pose status for every family.
 - Families and presets are registries (:func:`register_family`, :func:`register_preset`);
   :func:`load_mechanism` reads a preset name or a JSON/TOML geometry file naming its family.
+- :func:`workspace_along_rays`, :func:`translation_envelope`, :func:`orientation_envelope`,
+  :func:`max_travel` — the reachable workspace under the mechanism's limits, along rays.
 """
 
 from ._abstract import AbstractMechanism as AbstractMechanism, IKSolution as IKSolution
@@ -52,4 +54,14 @@ from ._ups import (
     fast_stewart as fast_stewart,
     rubin_camera as rubin_camera,
     rubin_m2 as rubin_m2,
+)
+from ._workspace import (
+    MAX_TRAVEL_RAYS as MAX_TRAVEL_RAYS,
+    MaxTravel as MaxTravel,
+    RayExtents as RayExtents,
+    fibonacci_sphere as fibonacci_sphere,
+    max_travel as max_travel,
+    orientation_envelope as orientation_envelope,
+    translation_envelope as translation_envelope,
+    workspace_along_rays as workspace_along_rays,
 )

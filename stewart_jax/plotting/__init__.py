@@ -42,3 +42,4 @@ from ._discrepancy import (
     plot_residuals as plot_residuals,
     plot_residuals_vs_factor as plot_residuals_vs_factor,
 )
+from ._mechanism import plot_workspace as plot_workspace
