@@ -22,7 +22,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution
-from ._registry import register_family, register_preset
+from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS = 36
@@ -267,12 +267,7 @@ def actual_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
 def geometry_from_dict(d: dict[str, Any]) -> PSSMechanism:
     """Inverse of :meth:`PSSMechanism.to_dict`. Accepts either ``upper``/``lower`` (6×3 each) or
     ``params`` (36 numbers, order ``Ac_1..Ac_6, Bc_1..Bc_6``); ``v0`` optional; lengths in mm."""
-    family = d.get("mechanism", PSSMechanism.family)
-    if family != PSSMechanism.family:
-        raise ValueError(f"geometry_from_dict reads a 6-PSS file, this one is {family!r}; use load_mechanism")
-    units = d.get("units", "mm")
-    if units != "mm":
-        raise ValueError(f"geometry lengths must be in mm, the file says units={units!r}")
+    check_file_header(d, PSSMechanism.family)
     v0 = d.get("v0", (0.0, 0.0, 0.0))
     if "params" in d:
         p = np.asarray(d["params"], dtype=np.float64)

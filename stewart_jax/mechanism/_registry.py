@@ -48,6 +48,18 @@ def register_preset(name: str) -> Callable[[Callable[[], AbstractMechanism]], Ca
     return deco
 
 
+def check_file_header(d: dict[str, Any], family: str) -> None:
+    """A family's ``from_dict`` starts here: the file names this family (or none, for the
+    default family) and its lengths are in mm."""
+    named = d.get("mechanism", DEFAULT_FAMILY)
+    if named != family:
+        raise ValueError(f"a {family!r} geometry was expected, the file says mechanism={named!r}; "
+                         "use load_mechanism to read any family")
+    units = d.get("units", "mm")
+    if units != "mm":
+        raise ValueError(f"{family} geometry lengths must be in mm, the file says units={units!r}")
+
+
 def families() -> tuple[str, ...]:
     """The registered family names (geometry files' ``"mechanism"`` values)."""
     return tuple(_FAMILIES)

@@ -49,7 +49,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution
-from ._registry import register_family, register_preset
+from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS_UPS = 42
@@ -252,12 +252,7 @@ class UPSMechanism(AbstractMechanism):
         ``v0``, ``lengths0``, ``stroke_limits`` (one ``[min, max]`` pair or six, mm),
         ``joint_angle_limits`` (degrees, one number or six, each in (0, 90)), ``travel``
         (``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``), ``units`` (must be ``"mm"``)."""
-        family = d.get("mechanism", cls.family)
-        if family != cls.family:
-            raise ValueError(f"UPSMechanism.from_dict reads a {cls.family!r} file, this one is {family!r}")
-        units = d.get("units", "mm")
-        if units != "mm":
-            raise ValueError(f"6-UPS geometry lengths must be in mm, the file says units={units!r}")
+        check_file_header({"mechanism": cls.family, **d}, cls.family)  # called directly, the key may be absent
         missing = [k for k in ("base", "platform") if k not in d]
         if missing:
             raise ValueError(f"6-UPS geometry is missing {missing}: give 'base' and 'platform' (6x3, mm)")
