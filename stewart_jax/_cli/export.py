@@ -3,29 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
-import tempfile
 
 
 def run(args: argparse.Namespace) -> int:
+    from .._files import write_text_atomic
     from ..mechanism._genhexkins import to_genhexkins
-    from ..mechanism._registry import load_mechanism
+    from ..mechanism._registry import load_mechanism, mechanism_json
 
     mechanism = load_mechanism(args.geometry)
-    if args.format == "genhexkins":
-        text = to_genhexkins(mechanism)
-    else:
-        text = json.dumps(mechanism.to_dict(), indent=2) + "\n"
+    text = to_genhexkins(mechanism) if args.format == "genhexkins" else mechanism_json(mechanism)
     if args.out is None:
         sys.stdout.write(text)
         return 0
-    directory = os.path.dirname(os.path.abspath(args.out))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".export-")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, args.out)
+    write_text_atomic(args.out, text)
     print(f"wrote {args.format} of {mechanism.family} geometry {args.geometry!r} to {args.out}", file=sys.stderr)
     return 0
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import tomllib
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from .._files import write_text_atomic
 from ._abstract import AbstractMechanism
 
 DEFAULT_FAMILY = "6-PSS"
@@ -113,16 +113,11 @@ def load_mechanism(source: str | os.PathLike[str]) -> AbstractMechanism:
     return mechanism_from_dict(d)
 
 
+def mechanism_json(mechanism: AbstractMechanism) -> str:
+    """The geometry file of ``mechanism`` as JSON text (full float64 precision)."""
+    return json.dumps(mechanism.to_dict(), indent=2) + "\n"
+
+
 def save_mechanism(mechanism: AbstractMechanism, path: str | os.PathLike[str]) -> None:
     """Write a geometry file as JSON (full float64 precision), atomically."""
-    text = json.dumps(mechanism.to_dict(), indent=2) + "\n"
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".geometry-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text_atomic(path, mechanism_json(mechanism))

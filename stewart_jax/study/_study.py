@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._files import write_text_atomic
 from ..calibration._methods import METHOD_LABELS as METHOD_LABELS, method_label
 from ..calibration._problem import (
     COMPONENTS,
@@ -240,10 +241,7 @@ def _load_checkpoint(path: str | None, config: dict[str, Any]) -> dict[str, Any]
 def _save_checkpoint(path: str | None, config: dict[str, Any], chunks: dict[str, Any]) -> None:
     if path is None:
         return
-    tmp = f"{path}.partial"
-    with open(tmp, "w") as f:
-        json.dump({"config_hash": _config_hash(config), "config": config, "chunks": chunks}, f)
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps({"config_hash": _config_hash(config), "config": config, "chunks": chunks}))
 
 
 def run_study(
