@@ -261,13 +261,16 @@ def minimise(
     Returns an :class:`OptimiseResult` (``history_*`` has one entry per scan step, frozen
     entries repeating the last value), and the final state too if ``return_state``.
     """
-    lower_flat, unravel = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), lower))
-    upper_flat, unravel_upper = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), upper))
+    def flat(tree):
+        return ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), tree))
+
+    lower_flat, unravel = flat(lower)
+    upper_flat, _ = flat(upper)
     if jax.tree.structure(lower) != jax.tree.structure(upper) or lower_flat.shape != upper_flat.shape:
         raise ValueError("lower and upper must have the same pytree structure and shapes")
     y0_flat = None
     if y0 is not None:
-        y0_flat, _ = ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), y0))
+        y0_flat, _ = flat(y0)
         if y0_flat.shape != lower_flat.shape:
             raise ValueError(f"y0 has {y0_flat.shape[0]} numbers, the box {lower_flat.shape[0]}")
     if int(max_evaluations) != max_evaluations or max_evaluations < 1:

@@ -99,17 +99,18 @@ def simulate_trials(
     sigma_arcsec: float = 0.1,
     tracker: bool = False,
     half_width: float = 10.0,
+    travel: tuple[float, ...] | None = None,
 ) -> tuple[CalibrationProblem, jax.Array, jax.Array, jax.Array]:
     """Independent simulated calibrations, one per key. Returns the batched problems, the
     calibration targets ``(trials, m, 6)``, validation targets ``(trials, 42, 6)`` and one
     key per trial for stochastic optimisers.
 
     Poses lie in the nominal mechanism's :func:`~stewart_jax.calibration.reachable_travel`
-    (the paper's ±1 mm / ±1° for its mechanism); the tracker is
-    :func:`~stewart_jax.calibration.tracker_for` the nominal mechanism."""
+    (the paper's ±1 mm / ±1° for its mechanism) unless ``travel`` (six half-widths) is given;
+    the tracker is :func:`~stewart_jax.calibration.tracker_for` the nominal mechanism."""
     if plan not in ("paper8", "plan120"):
         raise ValueError(f"the study runs plan 'paper8' or 'plan120', got {plan!r}")
-    half = tuple(float(h) for h in reachable_travel(nominal))
+    half = tuple(float(h) for h in (reachable_travel(nominal) if travel is None else travel))
     trk = tracker_for(nominal) if tracker else None
     sims, targets, validation, opt_keys = _simulate_batch(keys, nominal, actual, plan, sigma_um, sigma_arcsec,
                                                           trk, half)
@@ -194,7 +195,7 @@ def _max_errors_fn(n_devices: int) -> Callable:
     return _per_device(_max_errors_local, n_devices, replicated=(1, 2))
 
 
-def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
+def _run_chunk(method, calibrate, keys, nominal, actual, travel, config, n_devices):
     """One chunk of trials for one method → per-trial numbers (NumPy, JSON-ready)."""
     n = keys.shape[0]
     pad = (-n) % max(n_devices, 1)
@@ -202,7 +203,7 @@ def _run_chunk(method, calibrate, keys, nominal, actual, config, n_devices):
         keys = jnp.concatenate([keys, jnp.repeat(keys[-1:], pad, axis=0)])
     problems, targets, validation, opt_keys = simulate_trials(
         keys, nominal, actual, config["plan"], config["sigma_um"], config["sigma_arcsec"],
-        config["tracker"], config["half_width_mm"],
+        config["tracker"], config["half_width_mm"], travel,
     )
     t0 = time.perf_counter()
     res = jax.block_until_ready(calibrate(problems, opt_keys))
@@ -302,6 +303,7 @@ def run_study(
         "sigma_arcsec": sigma_arcsec, "tracker": tracker, "half_width_mm": half_width,
         "method_options": options, "first_trial": first_trial,
     }
+    travel = tuple(float(h) for h in reachable_travel(nominal))  # once, not per chunk and method
     chunk = chunk_size or n_trials
     keys = trial_keys(seed, n_trials, first_trial)
     chunks = _load_checkpoint(checkpoint, config)
@@ -313,7 +315,8 @@ def run_study(
             if str(start) in done:
                 continue
             stop = min(start + chunk, n_trials)
-            done[str(start)] = _run_chunk(method, calibrate, keys[start:stop], nominal, actual, config, n_devices)
+            done[str(start)] = _run_chunk(method, calibrate, keys[start:stop], nominal, actual, travel, config,
+                                          n_devices)
             _save_checkpoint(checkpoint, config, chunks)
             if method != BEFORE:
                 log(f"  {method}: trials {stop}/{n_trials} ({done[str(start)]['seconds']:.1f} s for this chunk)")
