@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from ._common import COLORS
+from ._common import COLORS, finish_figure
 
 
 def plot_fast_time_series(result: Any, *, title: str | None = None) -> Figure:
@@ -45,10 +45,7 @@ def plot_fast_time_series(result: Any, *, title: str | None = None) -> Figure:
     for a in axs:
         a.grid(True, alpha=0.3)
         a.legend(loc="upper right", fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def plot_fast_table2(
@@ -91,7 +88,4 @@ def plot_fast_table2(
         ax.set_ylabel(f"{name} (m)")
         ax.grid(True, axis="y", which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from ._common import COLORS, COMPONENT_LABELS, as_mapping, finish
+from ._common import COLORS, COMPONENT_LABELS, as_mapping, finish, finish_figure
 
 PAPER_TABLE4: dict[str, list[float]] = {
     "Sampling points before calibration": [19.52, 19.97, 17.25, 115.44, 105.73, 123.84],
@@ -83,10 +83,7 @@ def plot_pose_errors(
             ax.legend(fontsize=7, ncol=2 if label in paper_map else 3, loc="best")
     for ax in axes[-1]:
         ax.set_xlabel("pose index")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def plot_table_comparison(
@@ -142,10 +139,7 @@ def plot_table_comparison(
         ax.set_ylabel(f"max |control error| ({unit})")
         ax.grid(True, axis="y", which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def plot_convergence(
@@ -244,7 +238,4 @@ def plot_stroke_residuals(residuals_um: Any, *, sigma_um: float | None = None, t
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, ncol=4)
     axes[-1, 0].set_xlabel("pose index (row of the CSV)")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)

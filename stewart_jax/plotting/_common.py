@@ -55,3 +55,11 @@ def finish(fig: Figure, ax, title: str | None) -> Figure:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def finish_figure(fig: Figure, title: str | None) -> Figure:
+    """Optional figure title and tight layout: the common end of the multi-axes plots."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig

@@ -1,9 +1,6 @@
 """Figures of a mechanism's reachable workspace (:mod:`stewart_jax.mechanism`'s
 :func:`~stewart_jax.mechanism.translation_envelope` and
-:func:`~stewart_jax.mechanism.workspace_along_rays`).
-
-NOTE: matplotlib is imported inside the functions, so importing this module costs nothing.
-"""
+:func:`~stewart_jax.mechanism.workspace_along_rays`)."""
 
 from __future__ import annotations
 
@@ -11,6 +8,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+
+from ._common import finish_figure
 
 _PLANES = {"xy": (0, 1, 2), "xz": (0, 2, 1), "yz": (1, 2, 0)}
 
@@ -92,10 +91,7 @@ def plot_workspace(
         ax.set_title(f"section {plane} (colour: leg whose limit binds)", fontsize=10)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper right")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    return finish_figure(fig, title)
 
 
 def _rays(envelope: Any, name: str):
