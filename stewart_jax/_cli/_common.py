@@ -23,12 +23,33 @@ def geometry_args(p: argparse.ArgumentParser, *, true: bool) -> None:
     p.add_argument("--geometry", "--nominal", dest="geometry", default="nominal",
                    help="nominal (model) geometry: a preset (nominal, actual, rubin_camera, rubin_m2, "
                         "fast_stewart, …) or a JSON/TOML geometry file")
+    param_set_arg(p)
     if true:
         p.add_argument("--true", default=None,
                        help="true geometry (preset or file); default: 'actual' for the paper's 'nominal', "
                             "else the nominal one perturbed by --perturb-mm")
         p.add_argument("--perturb-mm", type=float, default=0.5,
                        help="σ (mm) of the Gaussian error on every parameter of the default true mechanism")
+
+
+def param_set_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--param-set", choices=("36", "42", "54"),
+                   help="6-PSS calibration parameters: 36 joint centres (the paper's), + 6 rod lengths (42), "
+                        "+ 12 slider-axis tilts in mrad (54); default: what the geometry file implies")
+
+
+def load_nominal(args: argparse.Namespace):
+    """``--geometry``, with ``--param-set`` applied."""
+    from ..mechanism._registry import load_mechanism
+
+    nominal = load_mechanism(args.geometry)
+    param_set = getattr(args, "param_set", None)
+    if param_set is None:
+        return nominal
+    if not hasattr(nominal, "with_param_set"):
+        raise ValueError(f"--param-set chooses among the 6-PSS parameter sets; {args.geometry!r} is a "
+                         f"{nominal.family}, whose parameters are fixed ({nominal.n_params})")
+    return nominal.with_param_set(param_set)
 
 
 def nominal_and_true(args: argparse.Namespace):
@@ -38,7 +59,7 @@ def nominal_and_true(args: argparse.Namespace):
     from ..calibration._simulation import perturbed
     from ..mechanism._registry import load_mechanism
 
-    nominal = load_mechanism(args.geometry)
+    nominal = load_nominal(args)
     if args.true is not None:
         true = load_mechanism(args.true)
     elif args.geometry == "nominal":

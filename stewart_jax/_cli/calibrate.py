@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from ..calibration._methods import METHOD_REGISTRY
-from ._common import file_backend, noise_args
+from ._common import file_backend, load_nominal, noise_args, param_set_arg
 
 
 def run(args: argparse.Namespace) -> int:
@@ -18,11 +18,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..calibration._csv import read_csv
     from ..calibration._problem import calibration_problem
-    from ..mechanism._registry import load_mechanism, save_mechanism
+    from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
     data = read_csv(args.file)
-    nominal = load_mechanism(args.geometry)
+    nominal = load_nominal(args)
     problem = calibration_problem(data, nominal, args.half_width)
     options = {}
     if args.max_evaluations is not None:
@@ -95,7 +95,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     noise_args(p)
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--geometry", default="nominal", help="starting/nominal geometry: preset or file")
-    p.add_argument("--half-width", type=float, default=10.0, help="Ω = nominal ± this (mm)")
+    param_set_arg(p)
+    p.add_argument("--half-width", type=float, default=10.0, help="Ω = nominal ± this (mm; mrad for tilts)")
     p.add_argument("--max-evaluations", type=int, help="objective-evaluation budget (metaheuristics)")
     p.add_argument("--max-steps", type=int, help="iteration budget (LM)")
     p.add_argument("--out-geometry", help="write the calibrated geometry as JSON")

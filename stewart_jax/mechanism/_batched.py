@@ -134,8 +134,10 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
     good. Under ``jit``, outputs that are not used are not computed, so
     ``inverse_kinematics_soa(g, p).strokes`` costs only the strokes.
     """
-    if not isinstance(geometry, PSSMechanism):
-        raise TypeError(f"inverse_kinematics_soa is the 6-PSS fast path, got a {type(geometry).__name__}; "
+    if not isinstance(geometry, PSSMechanism) or not geometry.is_paper_model:
+        raise TypeError("inverse_kinematics_soa is the fast path of Wang et al. (2018)'s 6-PSS (vertical sliders, "
+                        f"rod lengths from the zero pose), got a {type(geometry).__name__}"
+                        f"{'' if not isinstance(geometry, PSSMechanism) else ' with axes or rod lengths'}; "
                         "use solve_inverse_kinematics")
     poses_soa = jnp.asarray(poses_soa)
     if poses_soa.shape[:1] != (6,):

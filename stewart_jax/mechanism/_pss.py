@@ -1,20 +1,28 @@
-"""The 6-PSS Stewart mechanism: six vertical sliders, each carrying a fixed-length rod.
+"""The 6-PSS Stewart mechanism: six sliders, each carrying a fixed-length rod.
 
 Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope secondary mirror
 adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.1–1.2: leg vector (eq. 2),
 inverse kinematics (eq. 4), the 36 calibration parameters, Table 1 (the nominal and "actual"
 joint centres used by the simulation study).
 
-The 36 parameters are the joint centres: the upper (moving-platform) spherical joints ``Ac_i``
-in frame A and the lower spherical joints ``Bc_i`` in frame B at zero slider stroke. The rod
-lengths are not parameters: they follow from the zero pose, ``L_i = |Ac_i + v0 - Bc_i|`` (§1.2).
-Slider i moves the lower joint to ``Bc_i + q_i·e_z``. Units: mm.
+The paper's mechanism: the 36 parameters are the joint centres, the upper (moving-platform)
+spherical joints ``Ac_i`` in frame A and the lower spherical joints ``Bc_i`` in frame B at zero
+slider stroke. The rod lengths are not parameters: they follow from the zero pose,
+``L_i = |Ac_i + v0 - Bc_i|`` (§1.2). Slider i moves the lower joint to ``Bc_i + q_i·e_z``.
+
+Generalised (beyond the paper): slider i moves along an arbitrary unit axis ``n_i`` in B and the
+rod lengths may be given. With ``w_i = T·Ac_i + d + v0 − Bc_i`` the rod vector at zero stroke,
+``|w_i − q_i·n_i| = L_i`` gives ``q_i = w_i·n_i − sqrt(L_i² − |w_i|² + (w_i·n_i)²)``, eq. 4 for
+``n_i = e_z``. Three calibration parameter sets: ``"36"`` (the paper's), ``"42"`` (+ the six rod
+lengths) and ``"54"`` (+ two tilt angles per slider axis, in mrad, so that Ω's ± half-width in
+mm reads as ± the same number of mrad). Units: mm.
 """
 
 from __future__ import annotations
 
 from typing import Any, ClassVar, NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -26,6 +34,9 @@ from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS = 36
+PARAM_SETS = ("36", "42", "54")
+"""The 6-PSS calibration parameter sets: the paper's joint centres; + rod lengths; + axis tilts."""
+MRAD = 1e-3
 
 
 @register_family
@@ -42,6 +53,18 @@ class PSSMechanism(AbstractMechanism):
       zero slider stroke.
     - ``v0``: ``Float[Array, "3"]``, position of A's origin in B at the zero pose (the paper
       gives no value, the default is the origin).
+    - ``axes``: ``Float[Array, "6 3"] | None``, unit slider axes ``n_i`` in B (the reference the
+      tilts of the 54-parameter set rotate); ``None``: ``e_z`` for every leg, the paper's.
+    - ``lengths``: ``Float[Array, "6"] | None``, rod lengths (mm); ``None``: ``|Ac_i + v0 − Bc_i|``,
+      i.e. zero stroke at the zero pose, following the joint centres (the paper's).
+    - ``tilt``: ``Float[Array, "12"] | None``, the 54-parameter set's axis tilts
+      ``[α_1..α_6, β_1..β_6]`` (mrad): the slider moves along
+      ``cos α·cos β·n + cos α·sin β·u − sin α·v`` with ``(u, v, n)`` a right-handed frame of the
+      reference axis (``u = e_x``, ``v = e_y`` for ``n = e_z``, i.e. ``Ry(β)·Rx(α)·e_z``).
+    - ``param_set``: ``"36"``, ``"42"`` or ``"54"`` (static): which of the above are calibrated.
+
+    With ``axes``, ``lengths`` and ``tilt`` all ``None`` the mechanism is the paper's and its
+    readings are computed exactly as before the generalisation (eq. 4, cancellation-free).
     """
 
     family: ClassVar[str] = "6-PSS"
@@ -49,33 +72,94 @@ class PSSMechanism(AbstractMechanism):
     upper: Float[Array, "6 3"]
     lower: Float[Array, "6 3"]
     v0: Float[Array, "3"]
+    axes: Float[Array, "6 3"] | None
+    lengths: Float[Array, "6"] | None
+    tilt: Float[Array, "12"] | None
+    param_set: str = eqx.field(static=True)
 
-    def __init__(self, upper: ArrayLike, lower: ArrayLike, v0: ArrayLike = (0.0, 0.0, 0.0)):
+    def __init__(
+        self,
+        upper: ArrayLike,
+        lower: ArrayLike,
+        v0: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        axes: ArrayLike | None = None,
+        rod_lengths: ArrayLike | None = None,
+        tilt: ArrayLike | None = None,
+        param_set: str = "36",
+    ):
+        if param_set not in PARAM_SETS:
+            raise ValueError(f"6-PSS param_set must be one of {PARAM_SETS}, got {param_set!r}")
         self.upper = _as_float64(upper, "upper", (N_LEGS, 3))
         self.lower = _as_float64(lower, "lower", (N_LEGS, 3))
         self.v0 = _as_float64(v0, "v0", (3,))
+        self.axes = None if axes is None else _unit_axes(axes)
+        if rod_lengths is None and param_set != "36":
+            rod_lengths = jnp.linalg.norm(self.upper + self.v0 - self.lower, axis=-1)
+        self.lengths = None if rod_lengths is None else _positive(rod_lengths, "rod_lengths")
+        if tilt is None and param_set == "54":
+            tilt = jnp.zeros(2 * N_LEGS)
+        self.tilt = None if tilt is None else _as_float64(tilt, "tilt", (2 * N_LEGS,))
+        self.param_set = param_set
 
     @property
-    def params(self) -> Float[Array, "36"]:
-        """The 36 calibration parameters: ``Ac_1..Ac_6`` then ``Bc_1..Bc_6``, each x, y, z."""
-        return jnp.concatenate(
-            [self.upper.reshape(*self.upper.shape[:-2], 18), self.lower.reshape(*self.lower.shape[:-2], 18)],
-            axis=-1,
-        )
+    def is_paper_model(self) -> bool:
+        """Vertical sliders and rod lengths from the zero pose: Wang et al. (2018)'s mechanism."""
+        return self.axes is None and self.lengths is None and self.tilt is None
+
+    @property
+    def slider_axes(self) -> Float[Array, "6 3"]:
+        """The unit slider axes in B after the tilts (``e_z`` for the paper's mechanism)."""
+        ref = jnp.broadcast_to(jnp.array([0.0, 0.0, 1.0]), (N_LEGS, 3)) if self.axes is None else self.axes
+        if self.tilt is None:
+            return ref
+        return _tilted(ref, self.tilt * MRAD)
+
+    @property
+    def params(self) -> Float[Array, " n"]:
+        """The calibration parameters: ``Ac_1..Ac_6`` then ``Bc_1..Bc_6`` (each x, y, z, mm) —
+        the paper's 36; then, for the ``"42"`` and ``"54"`` sets, the six rod lengths (mm); then,
+        for ``"54"``, the axis tilts ``α_1..α_6, β_1..β_6`` (mrad)."""
+        batch = self.upper.shape[:-2]
+        parts = [self.upper.reshape(*batch, 18), self.lower.reshape(*batch, 18)]
+        if self.param_set != "36":
+            parts.append(self.lengths)
+        if self.param_set == "54":
+            parts.append(self.tilt)
+        return jnp.concatenate(parts, axis=-1)
 
     @property
     def rod_lengths(self) -> Float[Array, "6"]:
-        """Rod lengths ``L_i = |Ac_i + v0 - Bc_i|`` (zero stroke at the zero pose)."""
+        """Rod lengths ``L_i`` (mm): the given ones, or ``|Ac_i + v0 - Bc_i|`` (zero stroke at the
+        zero pose)."""
         return rod_lengths(self)
 
     @property
     def param_names(self) -> tuple[str, ...]:
-        return tuple(f"{side}{i}{c}" for side in ("Ac", "Bc") for i in range(1, 7) for c in "xyz")
+        names = [f"{side}{i}{c}" for side in ("Ac", "Bc") for i in range(1, 7) for c in "xyz"]
+        if self.param_set != "36":
+            names += [f"L{i}" for i in range(1, 7)]
+        if self.param_set == "54":
+            names += [f"{a}{i}" for a in ("alpha", "beta") for i in range(1, 7)]
+        return tuple(names)
 
     @classmethod
     def from_params(cls, params: ArrayLike, v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
         """Build a geometry from the 36-vector of :attr:`params`."""
         return geometry_from_params(params, v0)
+
+    def with_param_set(self, param_set: str) -> PSSMechanism:
+        """The same mechanism calibrated with another parameter set (``"36"``, ``"42"``, ``"54"``).
+
+        Going to a larger set fixes the current rod lengths and axes as the starting values
+        (tilts 0); going back to ``"36"`` keeps them fixed (not calibrated)."""
+        if param_set not in PARAM_SETS:
+            raise ValueError(f"6-PSS param_set must be one of {PARAM_SETS}, got {param_set!r}")
+        if param_set == self.param_set:
+            return self
+        axes = None if self.axes is None and self.tilt is None else self.slider_axes
+        return PSSMechanism(self.upper, self.lower, self.v0, axes=axes, rod_lengths=self.lengths,
+                            param_set=param_set)
 
     @property
     def travel_half_widths(self) -> np.ndarray:
@@ -86,8 +170,21 @@ class PSSMechanism(AbstractMechanism):
         """The paper gives no ball layout; ours: 100 mm from A's z axis, 90 mm above its origin."""
         return (100.0, 90.0)
 
-    def with_params(self, params: Float[Array, "36"]) -> PSSMechanism:
-        return geometry_from_params(params, self.v0)
+    def with_params(self, params: Float[Array, " n"]) -> PSSMechanism:
+        p = jnp.asarray(params, dtype=jnp.float64)
+        n = self.n_params
+        if p.shape[-1:] != (n,):
+            raise ValueError(f"6-PSS ({self.param_set}-parameter set) params must have a last axis of {n}, "
+                             f"got shape {p.shape}")
+        batch = p.shape[:-1]
+        lengths = self.lengths if self.param_set == "36" else p[..., 36:42]
+        tilt = p[..., 42:54] if self.param_set == "54" else self.tilt
+        return PSSMechanism(p[..., :18].reshape(*batch, N_LEGS, 3), p[..., 18:36].reshape(*batch, N_LEGS, 3),
+                            self.v0, axes=self.axes, rod_lengths=lengths, tilt=tilt, param_set=self.param_set)
+
+    @property
+    def n_params(self) -> int:
+        return {"36": 36, "42": 42, "54": 54}[self.param_set]
 
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """``a_i = T·Ac_i + d + v0``: the upper joint centres in B (eq. 2)."""
@@ -107,8 +204,13 @@ class PSSMechanism(AbstractMechanism):
         ``q = ℓz − sqrt(m)``, ``q = Σ_k δ_k(2e_k + δ_k) / (ℓz + sqrt(m))``. Strokes of a few mm
         then keep full relative precision instead of being the difference of two ~200 mm
         numbers, and ``q`` is exactly 0 at the zero pose for any geometry.
+
+        The generalised mechanism (slider axes ``n``, rod lengths ``L``) uses the same idea:
+        ``q = c / (n·w + sqrt((n·w)² − c))`` with ``w = e + δ`` and
+        ``c = |w|² − L² = δ·(2e + δ) − ΔL·(2|e| + ΔL)``, ``ΔL = L − |e|``; the margin is
+        ``(n·w)² − c``.
         """
-        parts = _ik_parts(self, poses)
+        parts = _ik_parts(self, poses) if self.is_paper_model else _general_ik_parts(self, poses)
         return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
@@ -118,7 +220,12 @@ class PSSMechanism(AbstractMechanism):
         z-extent once the slider has moved, ``q = ℓz − h`` gives ``∂q = ∂ℓz + (ℓx·∂ℓx + ℓy·∂ℓy)/h``
         with ``∂ℓ/∂d = I``, ``∂ℓ/∂φ = T·(e_x × Ac)``, ``∂ℓ/∂θ = (Rz(ψ)·e_y) × T·Ac`` and
         ``∂ℓ/∂ψ = e_z × T·Ac``.
+
+        For general slider axes ``n`` the same derivatives of ``w = ℓ`` enter through
+        ``∂q = g·∂w`` with ``g = n + (w − (n·w)·n)/h``, ``h = sqrt(margin)``.
         """
+        if not self.is_paper_model:
+            return _general_ik_and_jacobian(self, poses)
         parts = _ik_parts(self, poses)
         rot, w, ell, h = parts.rot, parts.w, parts.ell, parts.root
         upper = self.upper
@@ -144,14 +251,23 @@ class PSSMechanism(AbstractMechanism):
         return geometry_from_dict(d)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict (mm)."""
-        return {
+        """JSON-ready dict (mm): ``axes`` (after the tilts) and ``rod_lengths`` only where they
+        differ from the paper's defaults, ``param_set`` where it is not the default the file's
+        keys imply."""
+        d: dict[str, Any] = {
             "mechanism": self.family,
             "units": "mm",
             "upper": np.asarray(self.upper).tolist(),
             "lower": np.asarray(self.lower).tolist(),
             "v0": np.asarray(self.v0).tolist(),
         }
+        if self.axes is not None or self.tilt is not None:
+            d["axes"] = np.asarray(self.slider_axes).tolist()
+        if self.lengths is not None:
+            d["rod_lengths"] = np.asarray(self.lengths).tolist()
+        if self.param_set != _default_param_set(d):
+            d["param_set"] = self.param_set
+        return d
 
 
 Geometry = PSSMechanism
@@ -184,6 +300,99 @@ def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
     return _IKParts(rot, w, ell, growth, margin, root, strokes)
 
 
+class _GeneralParts(NamedTuple):
+    rot: Array  # T, (..., 3, 3)
+    w: Array  # T·Ac_i, (..., 6, 3)
+    ell: Array  # rod vector at zero stroke, (..., 6, 3)
+    axes: Array  # unit slider axes n_i, (6, 3)
+    margin: Array  # (n·ℓ)² − c, (..., 6)
+    root: Array  # sqrt(max(margin, 0)), (..., 6)
+    strokes: Array  # (..., 6)
+
+
+def _general_ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _GeneralParts:
+    rot = rotation_matrix(poses[..., 3:])
+    upper = geometry.upper
+    w = jnp.einsum("...jk,ik->...ij", rot, upper)
+    delta = w - upper + poses[..., None, :3]
+    e = upper + geometry.v0 - geometry.lower
+    c = jnp.sum(delta * (2.0 * e + delta), axis=-1)
+    if geometry.lengths is not None:
+        e_len = jnp.linalg.norm(e, axis=-1)
+        dl = geometry.lengths - e_len
+        c = c - dl * (2.0 * e_len + dl)
+    axes = geometry.slider_axes
+    ell = e + delta
+    nw = jnp.sum(axes * ell, axis=-1)
+    margin = nw**2 - c
+    root = jnp.sqrt(jnp.maximum(margin, 0.0))
+    denom = nw + root
+    strokes = jnp.where(denom > 0, c / jnp.where(denom > 0, denom, 1.0), nw - root)
+    return _GeneralParts(rot, w, ell, axes, margin, root, strokes)
+
+
+def _general_ik_and_jacobian(geometry: PSSMechanism, poses: Float[Array, "... 6"]):
+    parts = _general_ik_parts(geometry, poses)
+    n, ell, tp = parts.axes, parts.ell, parts.w
+    nw = jnp.sum(n * ell, axis=-1, keepdims=True)
+    h = jnp.where(parts.root > 0, parts.root, 1.0)[..., None]
+    g = n + (ell - nw * n) / h  # ∂q/∂w, (..., 6, 3)
+    upper = geometry.upper
+    ex_a = jnp.stack([jnp.zeros_like(upper[:, 0]), -upper[:, 2], upper[:, 1]], axis=-1)  # e_x × Ac
+    d_phi = jnp.einsum("...jk,ik->...ij", parts.rot, ex_a)
+    psi = poses[..., 5:6]
+    axis_theta = jnp.concatenate([-jnp.sin(psi), jnp.cos(psi), jnp.zeros_like(psi)], axis=-1)
+    d_theta = jnp.cross(jnp.broadcast_to(axis_theta[..., None, :], tp.shape), tp)
+    d_psi = jnp.stack([-tp[..., 1], tp[..., 0], jnp.zeros_like(tp[..., 0])], axis=-1)
+    jac = jnp.concatenate(
+        [g] + [jnp.sum(g * d, axis=-1, keepdims=True) for d in (d_phi, d_theta, d_psi)], axis=-1
+    )
+    return parts.strokes, parts.margin, jac
+
+
+def _frame(n: Float[Array, "6 3"]) -> tuple[Array, Array]:
+    """``(u, v)`` completing each unit axis ``n`` to a right-handed frame ``(u, v, n)``:
+    ``u ∝ e_y × n`` (``e_x`` for ``n = e_z``), or ``∝ e_z × n`` for axes near ``e_y``."""
+    ey = jnp.array([0.0, 1.0, 0.0])
+    ez = jnp.array([0.0, 0.0, 1.0])
+    ref = jnp.where(jnp.abs(n[:, 1:2]) < 0.9, ey, ez)
+    u = jnp.cross(ref, n)
+    u = u / jnp.linalg.norm(u, axis=-1, keepdims=True)
+    return u, jnp.cross(n, u)
+
+
+def _tilted(n: Float[Array, "6 3"], tilt: Float[Array, "12"]) -> Float[Array, "6 3"]:
+    """The axes ``cos α·cos β·n + cos α·sin β·u − sin α·v`` (``tilt = [α_1..α_6, β_1..β_6]``, rad)."""
+    u, v = _frame(n)
+    a, b = tilt[..., :N_LEGS, None], tilt[..., N_LEGS:, None]
+    return jnp.cos(a) * (jnp.cos(b) * n + jnp.sin(b) * u) - jnp.sin(a) * v
+
+
+def _unit_axes(x: ArrayLike) -> Array:
+    if isinstance(x, jax.core.Tracer):
+        return x
+    a = _checked_numpy(x, "axes", (N_LEGS, 3))
+    norm = np.linalg.norm(a, axis=-1)
+    if np.any(np.abs(norm - 1.0) > 1e-6):
+        raise ValueError(f"6-PSS axes must be unit vectors (one per leg, in B), got norms {norm.round(9).tolist()}")
+    return jnp.asarray(a / norm[:, None])
+
+
+def _positive(x: ArrayLike, name: str) -> Array:
+    if isinstance(x, jax.core.Tracer):
+        return x
+    a = _checked_numpy(x, name, (N_LEGS,))
+    if np.any(a <= 0):
+        raise ValueError(f"6-PSS {name} must be positive (mm), got {a.tolist()}")
+    return jnp.asarray(a)
+
+
+def _default_param_set(d: dict[str, Any]) -> str:
+    """A geometry file's parameter set when it names none: ``"54"`` with ``axes``, ``"42"``
+    with ``rod_lengths``, else the paper's ``"36"``."""
+    return "54" if "axes" in d else "42" if "rod_lengths" in d else "36"
+
+
 def geometry_from_params(params: Float[Array, "36"], v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
     """A 6-PSS mechanism from the 36-vector of :attr:`PSSMechanism.params` (order ``Ac_1..Ac_6`` then
     ``Bc_1..Bc_6``, each x, y, z); traceable, vmap it over ``params``."""
@@ -195,19 +404,29 @@ def geometry_from_params(params: Float[Array, "36"], v0: ArrayLike = (0.0, 0.0, 
 
 
 def rod_lengths(geometry: PSSMechanism) -> Float[Array, "6"]:
-    """``L_i = |Ac_i + v0 - Bc_i|`` (Wang et al. 2018, §1.2)."""
+    """The rod lengths (mm): the given ones, or ``L_i = |Ac_i + v0 - Bc_i|`` (Wang et al. 2018, §1.2)."""
+    if geometry.lengths is not None:
+        return geometry.lengths
     return jnp.linalg.norm(geometry.upper + geometry.v0 - geometry.lower, axis=-1)
 
 
 def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
     if isinstance(x, jax.core.Tracer):
         return x  # traced (jit/vmap): validated where the concrete value was built
+    return jnp.asarray(_checked_numpy(x, name, shape))
+
+
+def _checked_numpy(x: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` as float64 NumPy, its trailing shape and finiteness checked.
+
+    NOTE: checks stay in NumPy: under ``jit`` even ``jnp.asarray`` of a constant is staged
+    out as a tracer, which a NumPy conversion would then reject."""
     a = np.asarray(x, dtype=np.float64)
     if a.shape[-len(shape):] != shape:
         raise ValueError(f"Geometry.{name} must have shape {shape}, got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"Geometry.{name} contains NaN or inf: {a.tolist()}")
-    return jnp.asarray(a)
+    return a
 
 
 # Wang et al. (2018), Table 1 (mm). Rows: rod 1..6.
@@ -266,15 +485,29 @@ def actual_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
 
 def geometry_from_dict(d: dict[str, Any]) -> PSSMechanism:
     """Inverse of :meth:`PSSMechanism.to_dict`. Accepts either ``upper``/``lower`` (6×3 each) or
-    ``params`` (36 numbers, order ``Ac_1..Ac_6, Bc_1..Bc_6``); ``v0`` optional; lengths in mm."""
+    ``params`` (36 numbers, order ``Ac_1..Ac_6, Bc_1..Bc_6``); optional ``v0``, ``axes`` (6×3 unit
+    slider axes in B), ``rod_lengths`` (6) and ``param_set`` (``"36"``, ``"42"``, ``"54"``; default
+    ``"54"`` with ``axes``, ``"42"`` with ``rod_lengths``, else ``"36"``); lengths in mm."""
     check_file_header(d, PSSMechanism.family)
     v0 = d.get("v0", (0.0, 0.0, 0.0))
+    param_set = str(d.get("param_set", _default_param_set(d)))
+    if param_set not in PARAM_SETS:
+        raise ValueError(f"6-PSS geometry 'param_set' must be one of {list(PARAM_SETS)}, got {d['param_set']!r}")
+    extra = {"axes": d.get("axes"), "rod_lengths": d.get("rod_lengths"), "param_set": param_set}
     if "params" in d:
         p = np.asarray(d["params"], dtype=np.float64)
         if p.shape != (N_PARAMS,):
             raise ValueError(f"geometry 'params' must hold 36 numbers, got shape {p.shape}")
-        return PSSMechanism(p[:18].reshape(6, 3), p[18:].reshape(6, 3), v0)
-    missing = [k for k in ("upper", "lower") if k not in d]
-    if missing:
-        raise ValueError(f"geometry is missing {missing}: give 'upper' and 'lower' (6x3, mm) or 'params' (36)")
-    return PSSMechanism(d["upper"], d["lower"], v0)
+        g = PSSMechanism(p[:18].reshape(6, 3), p[18:].reshape(6, 3), v0, **extra)
+    else:
+        missing = [k for k in ("upper", "lower") if k not in d]
+        if missing:
+            raise ValueError(f"geometry is missing {missing}: give 'upper' and 'lower' (6x3, mm) or 'params' (36)")
+        g = PSSMechanism(d["upper"], d["lower"], v0, **extra)
+    margin = np.asarray(g.solve_inverse_kinematics(jnp.zeros(6)).margin)
+    if np.any(margin < 0):
+        raise ValueError(
+            f"6-PSS geometry cannot be assembled at the zero pose: legs {(np.flatnonzero(margin < 0) + 1).tolist()} "
+            "have rods shorter than their joint's distance from the slider axis (check rod_lengths and axes, mm)"
+        )
+    return g
