@@ -45,7 +45,7 @@ from stewart_jax.study import METHOD_LABELS, PAPER_TABLE2, format_study_table, r
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 N_TRIALS = 3 if QUICK else 100
 BUDGET = 2_000 if QUICK else 100_000
-METHODS = ("lm", "smcs", "vsa-smcs") if QUICK else ("cs", "smcs", "vsa-smcs", "lm", "vsa-smcs+lm")
+METHODS = ("lm", "vsa-smcs") if QUICK else ("cs", "smcs", "vsa-smcs", "lm", "vsa-smcs+lm")
 SEED = 0
 # Published figures go to notebooks/figures (or $STEWART_JAX_FIGURES); quick mode saves none.
 FIGURES = None if QUICK else Path(
