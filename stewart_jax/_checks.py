@@ -48,3 +48,9 @@ def check_poses(poses: ArrayLike, name: str = "poses") -> Array:
                 f"{MAX_ANGLE_RAD} rad; the library takes radians — were degrees passed?"
             )
     return p
+
+
+def valid_poses(poses: Array) -> Array:
+    """``Bool[Array, "..."]``: every component finite and every angle within ``MAX_ANGLE_RAD``;
+    traceable, so that jitted kinematics report a NaN or degree-valued pose as unreachable."""
+    return jnp.all(jnp.isfinite(poses), axis=-1) & jnp.all(jnp.abs(poses[..., 3:]) <= MAX_ANGLE_RAD, axis=-1)

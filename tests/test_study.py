@@ -33,6 +33,37 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
     with pytest.raises(ValueError, match="other settings"):
         study.run_study(("lm",), n_trials=4, chunk_size=2, checkpoint=ck, sigma_um=0.5)
 
+    # trials are stored by index: another chunk size resumes exactly (nothing recomputed, nothing
+    # counted twice), and more trials extend the study by computing only the new ones
+    lines.clear()
+    rechunked = study.run_study(("lm",), n_trials=4, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
+    assert not [line for line in lines if "trials" in line], lines
+    assert rechunked["rows"] == first["rows"]
+    more = study.run_study(("lm",), n_trials=5, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
+    assert [line for line in lines if "trials" in line] == [lines[-1]] and "for 1 trials" in lines[-1]
+    got = more["rows"]["LM (optimistix)"]["validation"]["per_trial_max"]
+    assert len(got) == 5 and got[:4] == lm["validation"]["per_trial_max"]
+
+
+@pytest.mark.parametrize("content", ["[]", '{"version": 2, "config_hash": "x", "tri', "\xff\xfe", "{}"])
+def test_a_damaged_checkpoint_is_named(tmp_path, content):
+    ck = tmp_path / "ck.json"
+    ck.write_bytes(content.encode("latin-1"))
+    with pytest.raises(ValueError, match="ck.json"):
+        study.run_study(("lm",), n_trials=2, checkpoint=str(ck))
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [({"n_trials": 0}, "n_trials"), ({"n_trials": -2}, "n_trials"), ({"chunk_size": -1}, "chunk_size"),
+     ({"n_devices": 0}, "n_devices"), ({"methods": ()}, "methods"), ({"methods": ("lm", "nope")}, "nope"),
+     ({"sigma_um": -0.1}, "sigma_um"), ({"plan": "plan8"}, "plan"), ({"half_width": 0.0}, "half_width")],
+)
+def test_bad_study_settings_are_refused_before_any_work(kwargs, message):
+    args = {"methods": ("lm",), "n_trials": 2, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        study.run_study(log=lambda s: pytest.fail(f"work started: {s}"), **args)
+
 
 def test_study_command_prints_table(capsys, tmp_path):
     png = tmp_path / "t.png"

@@ -33,7 +33,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError, TypeError) as e:
+    except (ValueError, OSError, TypeError) as e:  # bad input or an unreadable/unwritable file: a message
         print(f"stewart-jax {args.command}: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

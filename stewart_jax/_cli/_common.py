@@ -5,6 +5,24 @@ from __future__ import annotations
 import argparse
 
 
+def check_outputs(args: argparse.Namespace, **outputs: str) -> None:
+    """Every output path given (``attribute=description``) can be written: checked before any
+    work, so that a typo in a path costs nothing."""
+    from .._files import check_writable
+
+    for attr, what in outputs.items():
+        path = getattr(args, attr, None)
+        if path:
+            check_writable(path, what)
+
+
+def write_json(path: str, obj) -> None:
+    """``obj`` as strict JSON (non-finite numbers as ``null``), written atomically."""
+    from .._files import json_text, write_text_atomic
+
+    write_text_atomic(path, json_text(obj))
+
+
 def file_backend() -> None:
     """``--plot`` only writes a file: the non-interactive backend, chosen before pyplot is
     imported (the library itself never chooses one)."""

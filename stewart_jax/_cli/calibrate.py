@@ -3,49 +3,58 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
 import numpy as np
 
 from ..calibration._methods import METHOD_REGISTRY
-from ._common import file_backend, load_nominal, noise_args, param_set_arg
+from ._common import check_outputs, file_backend, load_nominal, noise_args, param_set_arg, write_json
 
 
 def run(args: argparse.Namespace) -> int:
+    check_outputs(args, json="--json", out_geometry="--out-geometry", plot="--plot", report="--report")
+    for name, value, least in (("--max-evaluations", args.max_evaluations, 1), ("--max-steps", args.max_steps, 1)):
+        if value is not None and value < least:
+            raise ValueError(f"{name} must be >= {least}, got {value}")
+    if not (np.isfinite(args.half_width) and args.half_width > 0):
+        raise ValueError(f"--half-width must be a positive number (mm), got {args.half_width}")
+    if not (args.sigma_um > 0 and args.sigma_arcsec > 0 and np.isfinite(args.sigma_um + args.sigma_arcsec)):
+        raise ValueError(f"--sigma-um and --sigma-arcsec must be positive (the pose noise of the data), got "
+                         f"{args.sigma_um} µm, {args.sigma_arcsec}″")
+    holdout = args.holdout if args.holdout is not None else (0.2 if args.report else 0.0)
+    if not 0 <= holdout < 1:
+        raise ValueError(f"--holdout must be a fraction in [0, 1), got {holdout}")
+    if args.max_evaluations is not None and METHOD_REGISTRY[args.method].kind == "least_squares":
+        raise ValueError("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
+
     import jax
 
+    from ..calibration._assessment import assess_calibration, implied_pose_errors
     from ..calibration._csv import read_csv
+    from ..calibration._methods import calibrate
     from ..calibration._problem import calibration_problem
     from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
     data = read_csv(args.file)
     nominal = load_nominal(args)
+    _check_reachable(nominal, data, args)
     problem = calibration_problem(data, nominal, args.half_width)
     options = {}
     if args.max_evaluations is not None:
-        if METHOD_REGISTRY[args.method].kind == "least_squares":
-            raise SystemExit("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
         options["max_evaluations"] = args.max_evaluations
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
     t0 = time.perf_counter()
-    from ..calibration._methods import calibrate
-
-    result = calibrate(problem, args.method, jax.random.key(args.seed), **options)
-    result = jax.block_until_ready(result)
+    result = jax.block_until_ready(calibrate(problem, args.method, jax.random.key(args.seed), **options))
     seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
     m = data.n_poses
-    from ..calibration._identifiability import calibration_uncertainty
-
-    unc = calibration_uncertainty(nominal.with_params(params), data.poses, args.sigma_um,
-                                  args.sigma_arcsec)
     out = {
         "method": args.method,
         "params": params.tolist(),
+        "param_names": list(nominal.param_names),
         "cost": float(result.cost),
         "n_evaluations": int(result.n_evaluations),
         "seconds": seconds,
@@ -55,24 +64,50 @@ def run(args: argparse.Namespace) -> int:
         "in_box": bool(np.all((params >= np.asarray(problem.lower)) & (params <= np.asarray(problem.upper)))),
         "half_width_mm": args.half_width,
         "seed": args.seed,
-        "param_std": np.asarray(unc["param_std"]).tolist(),
-        "identification_rank": int(unc["rank"]),
-        "identification_condition_number": float(unc["condition_number"]),
-        "predicted_control_error_std_max": dict(
-            zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
-                np.max(unc["control_error_std"], axis=0).tolist(), strict=True)
-        ),
     }
+    calibrated = nominal.with_params(params)
+    assessment = None
+    if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
+        assessment = assess_calibration(calibrated, data, args.sigma_um, args.sigma_arcsec)
+        out.update(_assessment_keys(assessment))
+        if assessment.status != "nonfinite":
+            from ..calibration._identifiability import identifiability_report, predicted_control_error_std
+
+            rep = identifiability_report(calibrated, data.poses, args.sigma_um, args.sigma_arcsec)
+            std = predicted_control_error_std(calibrated, data.poses, rep.param_cov)
+            out["predicted_control_error_std_max"] = dict(
+                zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
+                    np.max(std, axis=0).tolist(), strict=True))
+    else:
+        out["data_status"] = "nonfinite"
+        out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
+                           "check the units (mm, degrees) of the CSV and of the geometry"]
     print(
         f"{args.method}: S = {out['cost']:.6g} mm² (rms stroke residual {out['rms_residual_um']:.4g} µm) "
-        f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}",
+        f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}"
+        + (f", data {out['data_status']}" if "data_status" in out else ""),
         file=sys.stderr,
     )
+    for w in out.get("warnings", []):
+        print(f"WARNING: {w}", file=sys.stderr)
+    if args.report and assessment is not None:
+        heldout = _heldout(args, data, nominal, holdout, options) if holdout > 0 else None
+        from ..calibration._report import calibration_report
+
+        errors = {"nominal geometry": implied_pose_errors(nominal, data),
+                  "calibrated": implied_pose_errors(calibrated, data)}
+        text = calibration_report(
+            source={"data": args.file, "geometry": args.geometry, "method": args.method,
+                    "pose noise": f"{args.sigma_um} µm, {args.sigma_arcsec}″"},
+            nominal=nominal, calibrated=calibrated, result=out, assessment=assessment, pose_errors=errors,
+            heldout=heldout)
+        from .._files import write_text_atomic
+
+        write_text_atomic(args.report, text)
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=2)
-    if args.out_geometry:
-        save_mechanism(nominal.with_params(params), args.out_geometry)
+        write_json(args.json, out)
+    if args.out_geometry and out["status"] != "nonfinite":
+        save_mechanism(calibrated, args.out_geometry)
     if args.plot:
         file_backend()
         from .. import plotting
@@ -83,12 +118,67 @@ def run(args: argparse.Namespace) -> int:
         plotting.show(plotting.plot_stroke_residuals({"nominal": before, f"calibrated ({args.method})": after},
                                                      sigma_um=args.sigma_um), args.plot)
     if not args.json:
-        print(json.dumps(out))
-    return 0 if out["status"] != "nonfinite" else 1
+        from .._files import json_text
+
+        print(json_text(out, indent=None), end="")
+    if out["status"] == "nonfinite" or out.get("data_status") == "nonfinite":
+        return 1
+    return 3 if out.get("data_status") == "rank_deficient" else 0
+
+
+def _check_reachable(nominal, data, args) -> None:
+    """Refuse rows the nominal geometry cannot reach, naming them (wrong units, swapped columns)."""
+    import jax.numpy as jnp
+
+    sol = nominal.solve_inverse_kinematics(jnp.asarray(data.poses))
+    bad = np.flatnonzero(~np.asarray(sol.reachable))
+    if bad.size:
+        raise ValueError(
+            f"{args.file}: rows {(bad + 1).tolist()[:10]}{' …' if bad.size > 10 else ''} (1-based, after the header) "
+            f"are poses the nominal geometry {args.geometry!r} cannot reach — are the lengths in mm and the angles "
+            "in degrees, and is this the right geometry?")
+
+
+def _assessment_keys(a) -> dict:
+    return {
+        "data_status": a.status,
+        "warnings": a.warnings,
+        "identification_rank": a.rank,
+        "identification_condition_number": a.condition_number,
+        "identifiable": a.identifiable.tolist(),
+        "param_std": [float(s) if np.isfinite(s) else None for s in a.param_std],
+        "duplicate_rows": [[i + 1 for i in g] for g in a.duplicate_rows],
+        "chi2": a.chi2, "dof": a.dof, "p_value": a.p_value, "residual_to_noise_ratio": a.rms_ratio,
+    }
+
+
+def _heldout(args, data, nominal, fraction, options) -> dict:
+    """Calibrate without a random ``fraction`` of the rows; the held-out rows' implied pose errors."""
+    import jax
+
+    from ..calibration._assessment import implied_pose_errors
+    from ..calibration._methods import calibrate
+    from ..calibration._problem import calibration_problem
+
+    m = data.n_poses
+    k = int(round(fraction * m))
+    rng = np.random.default_rng(args.seed)
+    test = np.sort(rng.choice(m, size=k, replace=False))
+    train = np.setdiff1d(np.arange(m), test)
+    if 6 * len(train) < nominal.n_params or k == 0:
+        raise ValueError(f"--holdout {fraction}: {m} poses leave {len(train)} to calibrate {nominal.n_params} "
+                         "parameters with; use a smaller fraction or --holdout 0")
+    res = calibrate(calibration_problem(data.take(train), nominal, args.half_width), args.method,
+                    jax.random.key(args.seed), **options)
+    fitted = nominal.with_params(res.params)
+    held = data.take(test)
+    return {"rows": (test + 1).tolist(),
+            "errors": {"nominal geometry": implied_pose_errors(nominal, held),
+                       "calibrated without them": implied_pose_errors(fitted, held)}}
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    p = subparsers.add_parser("calibrate", help="calibrate the 36 parameters from a measured CSV")
+    p = subparsers.add_parser("calibrate", help="calibrate a mechanism's parameters from a measured CSV")
     p.add_argument("file", help="measured data CSV (q1..q6, x, y, z, rx, ry, rz)")
     p.add_argument("--method", choices=tuple(METHOD_REGISTRY), default="lm")
     p.add_argument("--seed", type=int, default=0, help="PRNG seed of the stochastic methods")
@@ -101,5 +191,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=int, help="iteration budget (LM)")
     p.add_argument("--out-geometry", help="write the calibrated geometry as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="stroke residuals before/after calibration")
+    p.add_argument("--report", metavar="OUT.md", help="write the calibration report (Markdown): fit, "
+                   "identifiability, before/after pose errors at calibration and held-out poses, parameters")
+    p.add_argument("--holdout", type=float, help="fraction of the poses held out for the report's check "
+                   "(default 0.2 with --report)")
     p.set_defaults(func=run)
     return p

@@ -10,7 +10,9 @@ def run(args: argparse.Namespace) -> int:
     from .._files import write_text_atomic
     from ..mechanism._genhexkins import to_genhexkins
     from ..mechanism._registry import load_mechanism, mechanism_json
+    from ._common import check_outputs
 
+    check_outputs(args, out="--out")
     mechanism = load_mechanism(args.geometry)
     text = to_genhexkins(mechanism) if args.format == "genhexkins" else mechanism_json(mechanism)
     if args.out is None:

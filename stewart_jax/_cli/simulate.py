@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from ._common import geometry_args, noise_args, nominal_and_true
+from ._common import check_outputs, geometry_args, noise_args, nominal_and_true
 
 
 def run(args: argparse.Namespace) -> int:
@@ -17,6 +17,9 @@ def run(args: argparse.Namespace) -> int:
     from ..calibration._simulation import plan_poses, reachable_travel, simulate_measurements, tracker_for
     from ..mechanism._registry import save_mechanism
 
+    check_outputs(args, out="--out", out_true="--out-true")
+    if args.sigma_um < 0 or args.sigma_arcsec < 0 or args.tracker_sigma_um < 0:
+        raise ValueError("the noise sigmas must be >= 0 (µm, ″)")
     nominal, true = nominal_and_true(args)
     k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
     targets = plan_poses(args.plan, k_plan, reachable_travel(nominal))

@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from ..calibration._methods import METHOD_REGISTRY
-from ._common import file_backend, geometry_args, noise_args, nominal_and_true
+from ._common import check_outputs, file_backend, geometry_args, noise_args, nominal_and_true, write_json
 
 
 def run(args: argparse.Namespace) -> int:
     from ..study._study import format_study_table, run_study
 
+    check_outputs(args, json="--json", plot="--plot", checkpoint="--checkpoint")
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = sorted(set(methods) - set(METHOD_REGISTRY))
     if unknown:
@@ -39,8 +39,7 @@ def run(args: argparse.Namespace) -> int:
     print("\nMax control error at 42 validation poses — median [90th percentile] over trials:\n")
     print(format_study_table(result, "validation"))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=2)
+        write_json(args.json, result)
     if args.plot:
         file_backend()
         from .. import plotting

@@ -11,6 +11,12 @@ from .._units import (
     UM as UM,
     error_in_report_units as error_in_report_units,
 )
+from ._assessment import (
+    CalibrationAssessment as CalibrationAssessment,
+    assess_calibration as assess_calibration,
+    duplicate_rows as duplicate_rows,
+    implied_pose_errors as implied_pose_errors,
+)
 from ._csv import (
     REQUIRED_COLUMNS as REQUIRED_COLUMNS,
     read_csv as read_csv,
@@ -52,6 +58,7 @@ from ._problem import (
     stroke_residuals as stroke_residuals,
     summarize_control_error as summarize_control_error,
 )
+from ._report import calibration_report as calibration_report
 from ._simulation import (
     PLANS as PLANS,
     TRAVEL_MM as TRAVEL_MM,

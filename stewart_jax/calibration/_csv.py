@@ -93,11 +93,20 @@ def read_csv_columns(
     """Every column of a CSV file as float64 arrays, with a clear error for a ragged or
     non-numeric cell (naming row and column). ``degree_columns`` are returned in radians,
     converted by :func:`parse_degrees`."""
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
+    if os.path.isdir(path):
+        raise ValueError(f"{path} is a folder, not a CSV file")
+    try:
+        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is not part of the first column's name
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            rows = list(csv.reader(f))
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start}); save the CSV as UTF-8") from None
     if not rows:
         raise ValueError(f"{path}: empty file (expected a header row)")
     header = [h.strip() for h in rows[0]]
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise ValueError(f"{path}: column(s) {repeated} appear more than once in the header")
     body = [r for r in rows[1:] if any(c.strip() for c in r)]
     if not body:
         raise ValueError(f"{path}: no data rows under the header")

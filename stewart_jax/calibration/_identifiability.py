@@ -87,7 +87,7 @@ def identifiability_report(
     norms = np.linalg.norm(J, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     s = np.linalg.svd(J / norms, compute_uv=False)
-    _, s_raw, vt = np.linalg.svd(J)
+    _, s_raw, vt = np.linalg.svd(J, full_matrices=False)  # vt is n × n either way (J is tall)
     rank = int(np.sum(s_raw > rtol * s_raw[0]))
     n = J.shape[1]
     smin = s[-1]

@@ -60,7 +60,8 @@ def inverse_kinematics(mechanism: AbstractMechanism, poses: ArrayLike) -> Float[
         return eqx.error_if(
             sol.strokes,
             ~sol.reachable[..., None],
-            "inverse_kinematics: unreachable pose (a leg cannot be assembled)",
+            "inverse_kinematics: unreachable pose (a leg cannot be assembled) or an invalid one (NaN, or an "
+            "angle beyond 0.5 rad: degrees given for radians?)",
         )
     reachable = np.asarray(sol.reachable)
     if not reachable.all():

@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._checks import valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution
 from ._registry import check_file_header, register_family, register_preset
@@ -211,7 +212,7 @@ class PSSMechanism(AbstractMechanism):
         ``(n·w)² − c``.
         """
         parts = _ik_parts(self, poses) if self.is_paper_model else _general_ik_parts(self, poses)
-        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1))
+        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
         """Strokes, margins (``(..., 6)``) and the analytic Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``).

@@ -101,16 +101,24 @@ def load_mechanism(source: str | os.PathLike[str]) -> AbstractMechanism:
         return preset(s)
     if not os.path.exists(s):
         raise FileNotFoundError(f"geometry {s!r} is neither a preset {presets()} nor an existing file")
+    if os.path.isdir(s):
+        raise ValueError(f"geometry {s!r} is a folder, not a geometry file")
+    kind = "TOML" if s.endswith(".toml") else "JSON"
     try:
-        if s.endswith(".toml"):
+        if kind == "TOML":
             with open(s, "rb") as f:
                 d = tomllib.load(f)
         else:
-            with open(s) as f:
+            with open(s, encoding="utf-8-sig") as f:  # tolerate a byte-order mark (files saved by Windows tools)
                 d = json.load(f)
+    except UnicodeDecodeError as e:
+        raise ValueError(f"geometry file {s!r} is not UTF-8 text ({e.reason} at byte {e.start})") from None
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as e:
-        raise ValueError(f"geometry file {s!r} is not valid {'TOML' if s.endswith('.toml') else 'JSON'}: {e}") from None
-    return mechanism_from_dict(d)
+        raise ValueError(f"geometry file {s!r} is not valid {kind}: {e}") from None
+    try:
+        return mechanism_from_dict(d)
+    except ValueError as e:
+        raise ValueError(f"geometry file {s!r}: {e}") from None
 
 
 def mechanism_json(mechanism: AbstractMechanism) -> str:

@@ -47,6 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._checks import valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution
 from ._registry import check_file_header, register_family, register_preset
@@ -175,7 +176,7 @@ class UPSMechanism(AbstractMechanism):
         """
         parts = _ik_parts(self, poses)
         margin = _margin(self, poses, parts)
-        return IKSolution(parts.strokes, margin, jnp.all(margin >= 0.0, axis=-1))
+        return IKSolution(parts.strokes, margin, jnp.all(margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
         """Readings, margins (``(..., 6)``) and the analytic pose Jacobian ``∂q_i/∂P_k``
