@@ -211,7 +211,8 @@ def simulate_hidden_effect(
     ``noise=False`` leaves the noise out of the measured poses (the effect is still scaled to
     the noise level σ)."""
     geometry = actual_geometry() if geometry is None else geometry
-    names = effect_names(model_for(geometry).name)
+    model_name = model_for(geometry).name
+    names = effect_names(model_name)
     if effect is not None and effect not in names:
         raise ValueError(f"unknown effect {effect!r} for a {geometry.family}; choose from {names} or None")
     if not magnitude >= 0:
@@ -225,7 +226,7 @@ def simulate_hidden_effect(
     theta = np.zeros(0)
     achieved = raw = 0.0
     if effect is not None:
-        e = get_effect(model_for(geometry).name, effect)
+        e = get_effect(model_name, effect)
         unknown = [c for c in e.requires if c not in CONDITION_COLUMNS]
         if unknown:
             raise ValueError(f"effect {effect!r} needs column(s) {unknown}, which the simulator does not provide")
