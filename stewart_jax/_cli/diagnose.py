@@ -1,5 +1,6 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV) and ``stewart-jax simulate-effect`` (measurements with one hidden registered
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS or 6-UPS) and
+``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
 
 from __future__ import annotations
@@ -11,15 +12,12 @@ import sys
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..calibration._csv import read_csv
-    from ..discrepancy import diagnose, pss_model
+    from ..discrepancy import diagnose, model_for
     from ..mechanism._registry import load_mechanism
 
     data = read_csv(args.file)
     geometry = load_mechanism(args.geometry)
-    if geometry.family != "6-PSS":
-        raise ValueError(f"the discrepancy workflow has a model for the 6-PSS family; {args.geometry!r} is a "
-                         f"{geometry.family} (its model is not implemented yet)")
-    model = pss_model(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     report = diagnose(
         data,
@@ -34,6 +32,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     out["file"] = args.file
     out["settings"] = {
         "geometry": args.geometry,
+        "family": geometry.family,
         "sigma_um": args.sigma_um,
         "sigma_arcsec": args.sigma_arcsec,
         "sigma_stroke_um": args.sigma_stroke_um,
@@ -91,21 +90,24 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    from ..discrepancy import PSS_MODEL_NAME, effect_names
+    from ..discrepancy import PSS_MODEL_NAME, effect_names, model_families
 
     names = effect_names(PSS_MODEL_NAME)
+    per_family = "; ".join(f"{fam}: {', '.join(effect_names(m))}" for fam, m in model_families().items())
     p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
     p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional)")
-    p.add_argument("--geometry", default="nominal", help="starting geometry: preset or JSON/TOML file")
+    p.add_argument("--geometry", default="nominal",
+                   help="starting geometry: preset or JSON/TOML file; its family picks the model and the candidates")
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
-    p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="encoder reading noise σ (µm)")
+    p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="actuator reading noise σ (µm)")
     p.add_argument("--estimate-noise", action="store_true",
                    help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")
     p.add_argument("--seed", type=int, default=0, help="seed of the train/held-out split")
     p.add_argument("--alpha", type=float, default=0.05, help="false-alarm level of the detection test")
-    p.add_argument("--effects", help=f"comma-separated candidate names (default: all registered: {', '.join(names)})")
+    p.add_argument("--effects", help="comma-separated candidate names (default: all registered for the geometry's "
+                   f"family; {per_family})")
     p.add_argument("--json", help="write the report as JSON")
     p.add_argument("--plot", metavar="DIR", help="write residual plots (before/after) to DIR")
     p.add_argument("--out-model", help="write the augmented model (geometry + effect parameters) as JSON")

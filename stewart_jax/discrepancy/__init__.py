@@ -5,8 +5,9 @@ The workflow (:func:`diagnose`, :func:`diagnose_many`) is generic over
 :class:`AbstractDiscrepancyModel`. The 6-PSS calibration model of Wang et al. 2018, "Improved
 cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
 and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are registered under
-``"6-pss"``; :func:`effects_for` lists them and :func:`simulate_hidden_effect` hides any of
-them in simulated measurements.
+``"6-pss"``, the 6-UPS strut model (:class:`UPSModel`) and its effects under ``"6-ups"``;
+:func:`model_for` picks the model of a mechanism's family, :func:`effects_for` lists a model's
+effects and :func:`simulate_hidden_effect` hides any of them in simulated measurements.
 
 The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
 parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
@@ -17,7 +18,7 @@ cable-robot simulator; ``plot_residuals`` (matplotlib) likewise.
 
 from typing import Any
 
-from . import _effects as _effects  # registers the 6-PSS candidates
+from . import _effects as _effects, _ups_effects as _ups_effects  # register the 6-PSS and 6-UPS candidates
 from ._driver import (
     MIN_DOF as MIN_DOF,
     check_sizes as check_sizes,
@@ -27,6 +28,15 @@ from ._driver import (
     split_rows as split_rows,
 )
 from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
+from ._families import (
+    ModelFamily as ModelFamily,
+    load_fitted_model as load_fitted_model,
+    model_families as model_families,
+    model_for as model_for,
+    model_name_for as model_name_for,
+    register_model_family as register_model_family,
+    save_fitted_model as save_fitted_model,
+)
 from ._hidden import (
     Conditions as Conditions,
     HiddenEffectData as HiddenEffectData,
@@ -41,10 +51,8 @@ from ._pss import (
     PSS_MODEL_NAME as PSS_MODEL_NAME,
     PSSModel as PSSModel,
     PSSState as PSSState,
-    load_fitted_model as load_fitted_model,
     pss_model as pss_model,
     pss_strokes as pss_strokes,
-    save_fitted_model as save_fitted_model,
 )
 from ._registry import (
     AbstractDiscrepancyModel as AbstractDiscrepancyModel,
@@ -73,6 +81,14 @@ from ._statistics import (
     where_analysis as where_analysis,
 )
 from ._subspace import Absorption as Absorption, absorption as absorption
+from ._ups import (
+    UPS_MODEL_NAME as UPS_MODEL_NAME,
+    UPSModel as UPSModel,
+    UPSState as UPSState,
+    gravity_axial_loads as gravity_axial_loads,
+    ups_model as ups_model,
+    ups_readings as ups_readings,
+)
 
 _CABLE_ROBOT = ("FastData", "FastModel", "FastResponses", "FastState", "fast_model", "fast_responses",
                 "simulate_fast_measurement")

@@ -1,23 +1,26 @@
-"""Simulated measurements of a 6-PSS mechanism with one hidden effect, to test and benchmark
-the discrepancy workflow (the mechanism of Wang et al. 2018, "Improved cuckoo calibration
-method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
-Engineering 47(5)).
+"""Simulated measurements of a mechanism with one hidden effect, to test and benchmark the
+discrepancy workflow: by default the "actual" 6-PSS of Wang et al. 2018, "Improved cuckoo
+calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
+Engineering 47(5); any mechanism whose family has a discrepancy model (a 6-UPS strut hexapod,
+e.g.) otherwise.
 
-The simulator is registry-driven: the true mechanism is the 6-PSS model extended by the hidden
-effect's registered ``apply`` at its true parameters — the same function the workflow fits —
-so every registered effect can be hidden without editing this module. The effect's
+The simulator is registry-driven: the true mechanism is the family's discrepancy model
+(:func:`~stewart_jax.discrepancy.model_for`) extended by the hidden effect's registered
+``apply`` at its true parameters — the same function the workflow fits — so every registered
+effect of every family can be hidden without editing this module. The effect's
 ``random_direction`` (default: standard normal × ``scale``) draws the direction of the true
 parameters and ``requires`` names the conditions it needs.
 
-Protocol: the noise-free measured poses = the 120-pose plan (Wang et al. 2018, §3) plus
-``n_random`` uniform poses in the travel, visited in random order every 20–40 s (``time``);
-each slider approaches from a random side (``dir``); the temperature is uniform in 20 ± 3 °C,
-independent of time and pose. The readings are those of the true mechanism at the true poses
-(the measured poses mapped by a measurement-side effect, e.g. a misaligned instrument); the
-measured poses get Gaussian noise σ (µm, ″). The effect's parameters are scaled so that the
-part of its stroke-residual signature the 36 geometric parameters cannot absorb has the
-requested RMS relative to the noise (whitened units: ``magnitude = 3`` means the unabsorbable
-signature is 3× the noise per residual).
+Protocol: the noise-free measured poses = the 120-pose plan (Wang et al. 2018, §3) scaled to
+the mechanism's reachable travel plus ``n_random`` uniform poses in that travel (for the paper's
+mechanism: ±1 mm / ±1°), visited in random order every 20–40 s (``time``); each actuator
+approaches from a random side (``dir``); the temperature is uniform in 20 ± 3 °C, independent
+of time and pose. The readings are those of the true mechanism at the true poses (the measured
+poses mapped by a measurement-side effect, e.g. a misaligned instrument); the measured poses
+get Gaussian noise σ (µm, ″). The effect's parameters are scaled so that the part of its
+reading-residual signature the geometric parameters (36 for the 6-PSS, 42 for the 6-UPS)
+cannot absorb has the requested RMS relative to the noise (whitened units: ``magnitude = 3``
+means the unabsorbable signature is 3× the noise per residual).
 """
 
 from __future__ import annotations
@@ -35,10 +38,11 @@ from .._units import ARCSEC, UM
 from ..calibration._csv import write_csv
 from ..calibration._identifiability import stroke_noise_covariance
 from ..calibration._problem import CalibrationData, make_calibration_data, stroke_residuals
-from ..calibration._simulation import sampling_plan_120
-from ..mechanism._pss import Geometry, actual_geometry
+from ..calibration._simulation import reachable_travel, sampling_plan_120
+from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._pss import actual_geometry
 from ._effects import T_REF_C
-from ._pss import MODEL_NAME, pss_model
+from ._families import model_for
 from ._registry import Effect, effect_names, get_effect
 
 CONDITION_COLUMNS = ("directions", "temperature", "time")
@@ -91,22 +95,23 @@ def _newton_terms(model, effects, thetas, data, target):
 
 @dataclasses.dataclass(frozen=True)
 class HiddenTruth:
-    """The true mechanism: geometry, the hidden effect (``None``: none) and its parameters in
-    library units (mm, rad, 1/K, mm/s; the order of the registered effect), and the achieved
-    size of its signature (``magnitude``: unabsorbable RMS / noise; ``raw_magnitude``: total
-    RMS / noise, whitened)."""
+    """The true mechanism: its geometry (any family with a discrepancy model), the hidden
+    effect (``None``: none; an effect of the family's model) and its parameters in library
+    units (mm, rad, 1/K, mm/s; the order of the registered effect), and the achieved size of
+    its signature (``magnitude``: unabsorbable RMS / noise; ``raw_magnitude``: total RMS /
+    noise, whitened)."""
 
-    geometry: Geometry
+    geometry: AbstractMechanism
     effect: str | None
     theta: np.ndarray
     magnitude: float
     raw_magnitude: float
 
     def _parts(self) -> tuple[object, tuple[Effect, ...], tuple[jnp.ndarray, ...]]:
-        model = pss_model(self.geometry)
+        model = model_for(self.geometry)
         if self.effect is None:
             return model, (), ()
-        return model, (get_effect(MODEL_NAME, self.effect),), (jnp.asarray(self.theta, jnp.float64),)
+        return model, (get_effect(model.name, self.effect),), (jnp.asarray(self.theta, jnp.float64),)
 
     def readings(self, measured: Float[np.ndarray, "m 6"], cond: Conditions) -> np.ndarray:
         """Encoder readings of the true mechanism when the (noise-free) instrument measures
@@ -155,11 +160,14 @@ def random_conditions(rng: np.random.Generator, m: int, step_s: tuple[float, flo
     )
 
 
-def hidden_pose_set(rng: np.random.Generator, n_random: int = 60, plan: bool = True) -> np.ndarray:
-    """The 120-pose plan (optional) plus ``n_random`` uniform poses in ±1 mm / ±1°, in random
-    order."""
-    half = np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3)
-    parts = [np.asarray(sampling_plan_120())] if plan else []
+def hidden_pose_set(
+    rng: np.random.Generator, n_random: int = 60, plan: bool = True, half: np.ndarray | None = None
+) -> np.ndarray:
+    """The 120-pose plan (optional) plus ``n_random`` uniform poses in ``±half`` (six
+    half-widths, mm and rad; default the paper's ±1 mm / ±1°), in random order; the plan is
+    scaled to ``half`` as :func:`~stewart_jax.sampling_plan_120` does."""
+    half = np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3) if half is None else np.asarray(half, dtype=np.float64)
+    parts = [np.asarray(sampling_plan_120(half=half))] if plan else []
     parts.append(rng.uniform(-half, half, (n_random, 6)))
     p = np.concatenate(parts)
     return p[rng.permutation(len(p))]
@@ -168,14 +176,15 @@ def hidden_pose_set(rng: np.random.Generator, n_random: int = 60, plan: bool = T
 _res_jac = jax.jit(jax.jacfwd(stroke_residuals))
 
 
-def _whitened_projector(geometry: Geometry, poses: np.ndarray, sigma: np.ndarray):
-    """Per-pose whiteners of the stroke residuals and an orthonormal basis of the whitened
-    36-parameter Jacobian's span."""
+def _whitened_projector(geometry: AbstractMechanism, poses: np.ndarray, sigma: np.ndarray):
+    """Per-pose whiteners of the reading residuals and an orthonormal basis of the whitened
+    geometric-parameter Jacobian's span."""
     cov = np.asarray(stroke_noise_covariance(geometry, jnp.asarray(poses), jnp.diag(jnp.asarray(sigma**2))))
     w = np.linalg.inv(np.linalg.cholesky(cov))
     data = CalibrationData(jnp.zeros_like(jnp.asarray(poses)), jnp.asarray(poses))
-    g = np.asarray(_res_jac(geometry.params, data, geometry)).reshape(len(poses), 6, 36)
-    gw = np.einsum("mij,mjk->mik", w, g).reshape(-1, 36)
+    n = geometry.n_params
+    g = np.asarray(_res_jac(geometry.params, data, geometry)).reshape(len(poses), 6, n)
+    gw = np.einsum("mij,mjk->mik", w, g).reshape(-1, n)
     u, s, _ = np.linalg.svd(gw / np.linalg.norm(gw, axis=0), full_matrices=False)
     q = u[:, s > 1e-9 * s[0]]
     return w, q
@@ -190,35 +199,40 @@ def simulate_hidden_effect(
     plan: bool = True,
     sigma_um: float = 0.1,
     sigma_arcsec: float = 0.1,
-    geometry: Geometry | None = None,
+    geometry: AbstractMechanism | None = None,
     noise: bool = True,
+    half: np.ndarray | None = None,
 ) -> HiddenEffectData:
-    """Measured data of a true mechanism (default: the "actual" geometry of
-    :func:`~stewart_jax.actual_geometry`) with one hidden registered ``effect`` (``None`` for
-    none) whose unabsorbable signature is ``magnitude`` × the noise. ``noise=False`` leaves the
-    noise out of the measured poses (the effect is still scaled to the noise level σ)."""
-    names = effect_names(MODEL_NAME)
+    """Measured data of a true mechanism ``geometry`` (default: the "actual" 6-PSS of
+    :func:`~stewart_jax.actual_geometry`; any family with a discrepancy model) with one hidden
+    ``effect`` registered for its family's model (``None`` for none) whose unabsorbable
+    signature is ``magnitude`` × the noise. Poses lie in ``±half`` (six half-widths, mm and
+    rad; default the mechanism's :func:`~stewart_jax.calibration.reachable_travel`).
+    ``noise=False`` leaves the noise out of the measured poses (the effect is still scaled to
+    the noise level σ)."""
+    geometry = actual_geometry() if geometry is None else geometry
+    model_name = model_for(geometry).name
+    names = effect_names(model_name)
     if effect is not None and effect not in names:
-        raise ValueError(f"unknown effect {effect!r}; choose from {names} or None")
+        raise ValueError(f"unknown effect {effect!r} for a {geometry.family}; choose from {names} or None")
     if not magnitude >= 0:
         raise ValueError(f"magnitude must be ≥ 0, got {magnitude}")
     rng = np.random.default_rng(seed)
-    geometry = actual_geometry() if geometry is None else geometry
-    poses = hidden_pose_set(rng, n_random, plan)
+    half = reachable_travel(geometry) if half is None else half
+    poses = hidden_pose_set(rng, n_random, plan, half)
     m = len(poses)
     cond = random_conditions(rng, m)
     sigma = np.array([sigma_um * UM] * 3 + [sigma_arcsec * ARCSEC] * 3)
     theta = np.zeros(0)
     achieved = raw = 0.0
     if effect is not None:
-        e = get_effect(MODEL_NAME, effect)
+        e = get_effect(model_name, effect)
         unknown = [c for c in e.requires if c not in CONDITION_COLUMNS]
         if unknown:
             raise ValueError(f"effect {effect!r} needs column(s) {unknown}, which the simulator does not provide")
         direction = e.random_direction(rng)
         # Signature of the direction, linear regime: residuals of the true geometry's
-        # 36-parameter model on noise-free data, whitened, then the part the geometry absorbs
-        # removed.
+        # base model on noise-free data, whitened, then the part the geometry absorbs removed.
         base = HiddenTruth(geometry, None, np.zeros(0), 0.0, 0.0).readings(poses, cond)
         probe = HiddenTruth(geometry, effect, direction * _PROBE, 0.0, 0.0).readings(poses, cond)
         w, basis = _whitened_projector(geometry, poses, sigma)

@@ -21,6 +21,7 @@ from .._math import rotation_matrix
 from .._units import ARCSEC, COMPONENTS, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._pss import Geometry, geometry_from_params
+from ._families import check_noise, register_model_family
 from ._registry import AbstractDiscrepancyModel
 
 MODEL_NAME = "6-pss"
@@ -203,16 +204,16 @@ class PSSModel(AbstractDiscrepancyModel):
 def pss_model(
     geometry: Geometry, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
 ) -> PSSModel:
-    """:class:`PSSModel` starting from ``geometry`` with pose noise σ (µm, ″) and optional
-    reading noise (µm)."""
-    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), ("sigma_stroke_um", sigma_stroke_um)):
-        if not (np.isfinite(s) and s >= 0):
-            raise ValueError(f"{name} must be a finite number ≥ 0, got {s}")
-    if sigma_stroke_um == 0 and (sigma_um == 0 or sigma_arcsec == 0):
-        raise ValueError(
-            "the stroke-residual covariance J·Σ·Jᵀ is singular unless both pose sigmas are > 0 "
-            f"(got sigma_um={sigma_um}, sigma_arcsec={sigma_arcsec}); give both, or sigma_stroke_um > 0"
-        )
+    """:class:`PSSModel` starting from ``geometry`` (a 6-PSS with the paper's 36 parameters) with
+    pose noise σ (µm, ″) and optional reading noise (µm)."""
+    family = getattr(geometry, "family", type(geometry).__name__)
+    if family != Geometry.family:
+        raise ValueError(f"pss_model needs a 6-PSS mechanism, got a {family}; model_for(mechanism) picks the "
+                         "model of its family")
+    if geometry.n_params != 36:
+        raise ValueError(f"the 6-PSS discrepancy model has the 36 joint-centre parameters of Wang et al. (2018); "
+                         f"this 6-PSS has {geometry.n_params}")
+    check_noise(sigma_um, sigma_arcsec, sigma_stroke_um)
     return PSSModel(
         geometry.params,
         geometry.v0,
@@ -222,47 +223,4 @@ def pss_model(
     )
 
 
-def save_fitted_model(fitted, path) -> None:
-    """Write a fitted (augmented) 6-PSS model as JSON: the 36 parameters and ``v0`` (mm), the
-    noise model, and each effect's name and parameters (library units: mm, rad, 1/K, mm/s)."""
-    import json
-
-    m = fitted.model
-    out = {
-        "model": MODEL_NAME,
-        "units": "mm",
-        "params": np.asarray(fitted.base).tolist(),
-        "v0": np.asarray(m.v0).tolist(),
-        "sigma_um": float(m.sigma_mm) / UM,
-        "sigma_arcsec": float(m.sigma_rad) / ARCSEC,
-        "sigma_stroke_um": float(m.sigma_stroke_mm) / UM,
-        "effects": [
-            {"effect": e.name, "params": np.asarray(t).tolist(), "report_params": r["params"], "report_unit": e.unit}
-            for e, t, r in zip(fitted.effects, fitted.thetas, fitted.effect_report(), strict=True)
-        ],
-    }
-    with open(path, "w") as f:
-        json.dump(out, f, indent=2)
-        f.write("\n")
-
-
-def load_fitted_model(path):
-    """Inverse of :func:`save_fitted_model`: a :class:`~stewart_jax.discrepancy.FittedModel`
-    whose :meth:`commanded` gives the readings to command for target poses."""
-    import json
-
-    from ._registry import get_effect
-    from ._report import FittedModel
-
-    with open(path) as f:
-        d = json.load(f)
-    if d.get("model") != MODEL_NAME:
-        raise ValueError(f"{path}: not a {MODEL_NAME} model file (model={d.get('model')!r})")
-    g = geometry_from_params(np.asarray(d["params"], dtype=np.float64), d.get("v0", (0.0, 0.0, 0.0)))
-    model = pss_model(g, d.get("sigma_um", 0.1), d.get("sigma_arcsec", 0.1), d.get("sigma_stroke_um", 0.0))
-    effects = tuple(get_effect(MODEL_NAME, e["effect"]) for e in d.get("effects", []))
-    thetas = tuple(jnp.asarray(e["params"], dtype=jnp.float64) for e in d.get("effects", []))
-    for e, t in zip(effects, thetas, strict=True):
-        if t.shape != (e.n_params,):
-            raise ValueError(f"{path}: effect {e.name!r} needs {e.n_params} parameters, got {t.shape}")
-    return FittedModel(model, effects, g.params, thetas)
+register_model_family(Geometry.family, MODEL_NAME, pss_model, lambda model, base: geometry_from_params(base, model.v0))

@@ -1,0 +1,187 @@
+"""Which discrepancy model questions which mechanism family, and the file of a fitted model.
+
+Each mechanism family with a discrepancy model registers it once::
+
+    register_model_family("6-UPS", "6-ups", ups_model, lambda model, base: model.mechanism.with_params(base))
+
+with the family's name (``mechanism.family``), the model's name (the key its effects are
+registered under), the factory ``(mechanism, sigma_um, sigma_arcsec, sigma_stroke_um) -> model``
+and ``(model, base) -> mechanism``, the mechanism whose calibration parameters are ``base``.
+:func:`model_for` then builds the model of any registered family, and the hidden-effect
+simulator, the command line and :func:`save_fitted_model`/:func:`load_fitted_model` dispatch
+through it. The 6-PSS model (Wang et al. 2018, "Improved cuckoo calibration method of space
+telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)) and the
+6-UPS strut model register themselves here.
+
+Every model registered here has the pose-noise fields ``sigma_mm``, ``sigma_rad`` and
+``sigma_stroke_mm`` (mm, rad, mm), which the model file records.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .._units import ARCSEC, UM
+from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._registry import mechanism_from_dict
+from ._registry import AbstractDiscrepancyModel, get_effect
+
+
+class ModelFamily(NamedTuple):
+    """A registered family → model pairing (see the module docstring)."""
+
+    family: str
+    model_name: str
+    factory: Callable[[AbstractMechanism, float, float, float], AbstractDiscrepancyModel]
+    mechanism: Callable[[AbstractDiscrepancyModel, Float[Array, " p"]], AbstractMechanism]
+
+
+_FAMILIES: dict[str, ModelFamily] = {}
+
+
+def register_model_family(
+    family: str,
+    model_name: str,
+    factory: Callable[[AbstractMechanism, float, float, float], AbstractDiscrepancyModel],
+    mechanism: Callable[[AbstractDiscrepancyModel, Float[Array, " p"]], AbstractMechanism],
+) -> ModelFamily:
+    """Register the discrepancy model of mechanism family ``family`` (re-registering replaces)."""
+    entry = ModelFamily(family, model_name, factory, mechanism)
+    _FAMILIES[family] = entry
+    return entry
+
+
+def model_families() -> dict[str, str]:
+    """Mechanism family → name of its discrepancy model, for every registered family."""
+    return {f: e.model_name for f, e in _FAMILIES.items()}
+
+
+def _entry_for_family(family: str) -> ModelFamily:
+    try:
+        return _FAMILIES[family]
+    except KeyError:
+        raise ValueError(
+            f"the discrepancy workflow has no model for the {family} family; families with one: {sorted(_FAMILIES)}"
+        ) from None
+
+
+def _entry_for_model(model_name: str) -> ModelFamily:
+    for e in _FAMILIES.values():
+        if e.model_name == model_name:
+            return e
+    raise ValueError(
+        f"no discrepancy model named {model_name!r}; known: {sorted(e.model_name for e in _FAMILIES.values())}"
+    )
+
+
+def model_name_for(family: str) -> str:
+    """The name of the discrepancy model (and effect registry key) of mechanism family ``family``."""
+    return _entry_for_family(family).model_name
+
+
+def check_noise(sigma_um: float, sigma_arcsec: float, sigma_stroke_um: float) -> None:
+    """Clear errors for a noise model the whitener cannot invert: every σ finite and ≥ 0, and
+    both pose σ > 0 unless the readings have noise of their own."""
+    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), ("sigma_stroke_um", sigma_stroke_um)):
+        if not (np.isfinite(s) and s >= 0):
+            raise ValueError(f"{name} must be a finite number ≥ 0, got {s}")
+    if sigma_stroke_um == 0 and (sigma_um == 0 or sigma_arcsec == 0):
+        raise ValueError(
+            "the stroke-residual covariance J·Σ·Jᵀ is singular unless both pose sigmas are > 0 "
+            f"(got sigma_um={sigma_um}, sigma_arcsec={sigma_arcsec}); give both, or sigma_stroke_um > 0"
+        )
+
+
+def model_for(
+    mechanism: AbstractMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
+) -> AbstractDiscrepancyModel:
+    """The discrepancy model of ``mechanism``'s family, starting from ``mechanism``, with pose noise
+    σ (µm, ″) and reading noise σ (µm); a clear error for a family without a model."""
+    if not isinstance(mechanism, AbstractMechanism):
+        raise TypeError(f"model_for needs a mechanism (e.g. stewart_jax.load_mechanism(...)), got {mechanism!r}")
+    return _entry_for_family(mechanism.family).factory(mechanism, sigma_um, sigma_arcsec, sigma_stroke_um)
+
+
+def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
+    """Write a fitted (augmented) model as JSON: the model name and mechanism family, the
+    calibration parameters (``params``) and ``v0`` (mm), the fitted mechanism's geometry file
+    (``geometry``, with the family's limits and travel), the noise model, and each effect's name
+    and parameters (library units: mm, rad, 1/K, mm/s; and in report units)."""
+    m = fitted.model
+    entry = _entry_for_model(m.name)
+    mechanism = entry.mechanism(m, jnp.asarray(fitted.base))
+    out = {
+        "model": m.name,
+        "family": entry.family,
+        "units": "mm",
+        "params": np.asarray(fitted.base).tolist(),
+        "v0": np.asarray(mechanism.v0).tolist(),
+        "sigma_um": float(m.sigma_mm) / UM,
+        "sigma_arcsec": float(m.sigma_rad) / ARCSEC,
+        "sigma_stroke_um": float(m.sigma_stroke_mm) / UM,
+        "effects": [
+            {"effect": e.name, "params": np.asarray(t).tolist(), "report_params": r["params"], "report_unit": e.unit}
+            for e, t, r in zip(fitted.effects, fitted.thetas, fitted.effect_report(), strict=True)
+        ],
+        "geometry": mechanism.to_dict(),
+    }
+    with open(path, "w") as f:
+        json.dump(out, f, indent=2)
+        f.write("\n")
+
+
+def _legacy_pss_geometry(d: dict[str, Any]) -> dict[str, Any]:
+    """The geometry of a 6-PSS model file written before files carried ``geometry``: the 36
+    parameters (``Ac_1..Ac_6``, ``Bc_1..Bc_6``) and ``v0``."""
+    p = np.asarray(d["params"], dtype=np.float64)
+    if p.shape != (36,):
+        raise ValueError(f"a 6-pss model file without 'geometry' must give 36 params, got {p.shape}")
+    return {"mechanism": "6-PSS", "units": "mm", "upper": p[:18].reshape(6, 3).tolist(),
+            "lower": p[18:].reshape(6, 3).tolist(), "v0": d.get("v0", (0.0, 0.0, 0.0))}
+
+
+def load_fitted_model(path: str | os.PathLike[str]):
+    """Inverse of :func:`save_fitted_model` for any registered family (and the 6-PSS files
+    written before the family was recorded): a :class:`~stewart_jax.discrepancy.FittedModel`
+    whose :meth:`commanded` gives the readings to command for target poses."""
+    from ._report import FittedModel
+
+    with open(path) as f:
+        d = json.load(f)
+    name = d.get("model")
+    try:
+        entry = _entry_for_model(name)
+    except ValueError as err:
+        raise ValueError(f"{path}: not a fitted discrepancy model file ({err})") from None
+    if "params" not in d:
+        raise ValueError(f"{path}: the model file has no 'params'")
+    geometry = d.get("geometry")
+    if geometry is None:
+        if entry.family != "6-PSS":
+            raise ValueError(f"{path}: a {entry.family} model file must carry its 'geometry'")
+        geometry = _legacy_pss_geometry(d)
+    mechanism = mechanism_from_dict(geometry)
+    if mechanism.family != entry.family:
+        raise ValueError(
+            f"{path}: model {name!r} is for the {entry.family} family, its geometry is a {mechanism.family}"
+        )
+    params = np.asarray(d["params"], dtype=np.float64)
+    if params.shape != (mechanism.n_params,):
+        raise ValueError(
+            f"{path}: a {entry.family} model has {mechanism.n_params} params, the file gives {params.shape}"
+        )
+    mechanism = mechanism.with_params(jnp.asarray(params))
+    model = entry.factory(mechanism, d.get("sigma_um", 0.1), d.get("sigma_arcsec", 0.1), d.get("sigma_stroke_um", 0.0))
+    effects = tuple(get_effect(name, e["effect"]) for e in d.get("effects", []))
+    thetas = tuple(jnp.asarray(e["params"], dtype=jnp.float64) for e in d.get("effects", []))
+    for e, t in zip(effects, thetas, strict=True):
+        if t.shape != (e.n_params,):
+            raise ValueError(f"{path}: effect {e.name!r} needs {e.n_params} parameters, got {t.shape}")
+    return FittedModel(model, effects, model.base_initial, thetas)

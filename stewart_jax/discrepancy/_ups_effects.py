@@ -1,0 +1,85 @@
+"""The candidate effects of the 6-UPS strut model: what the 42-parameter strut model leaves out.
+
+The strut hexapods that position telescope optics (and the Stewart platform in the FAST feed
+cabin of Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven parallel robot with a Stewart
+platform for use in FAST") have the same leg as Wang et al. 2018, "Improved cuckoo calibration
+method of space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering
+47(5), eq. 2, with a length-changing strut in place of the slider and fixed rod. Each effect is
+the physics of the *true* strut written as a change of the model's
+:class:`~stewart_jax.discrepancy.UPSState`; ``theta = 0`` is the 42-parameter model. Parameters
+are per strut (index ``i`` = strut ``i + 1``) unless stated; ``m`` is the number of poses.
+
+Effects are registered per model, so the 6-PSS's slider effects (``actuator_tilt``) are not
+offered for struts; those whose physics does not depend on the leg (``backlash``, ``drift``,
+``tracker_misalignment``) are the 6-PSS definitions registered again under this model. There
+is no ``zero_offset``: the zero-reading lengths ``lengths0`` are base parameters of the strut
+model already.
+"""
+
+from __future__ import annotations
+
+from jaxtyping import Array, Float
+
+from .._units import UM
+from ..calibration._problem import CalibrationData
+from ._effects import T_REF_C, backlash, drift, tracker_misalignment
+from ._registry import Effect, register_effect
+from ._ups import MODEL_NAME, UPSState, gravity_axial_loads
+
+
+@register_effect(MODEL_NAME, "strut_scale", n_params=6, scale=1e-4, unit="ppm", report_factor=1e6)
+def strut_scale(theta: Float[Array, "6"], data: CalibrationData, state: UPSState) -> UPSState:
+    """Encoder / ball-screw scale error: true length change = ``(1 + k_i)`` · reading
+    (``k_i`` dimensionless)."""
+    return state._replace(gain=state.gain / (1.0 + theta))
+
+
+@register_effect(
+    MODEL_NAME,
+    "thermal_expansion",
+    n_params=6,
+    scale=1e-6,
+    unit="ppm/K",
+    report_factor=1e6,
+    requires=("temperature",),
+)
+def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: UPSState) -> UPSState:
+    """Struts change length with temperature: ``L_i(T) = L_i·(1 + α_i·(T − 20 °C))`` for the whole
+    strut, ``L_i = lengths0_i + true length change`` (``α_i`` in 1/K, one per strut): the
+    zero-reading length grows by ``lengths0_i·α_i·ΔT`` and the extension by the factor
+    ``1 + α_i·ΔT``."""
+    grow = theta * (data.temperature[:, None] - T_REF_C)
+    return state._replace(dlength=state.dlength + state.lengths0 * grow, gain=state.gain / (1.0 + grow))
+
+
+@register_effect(MODEL_NAME, "gravity_sag", n_params=6, scale=UM, unit="µm", report_factor=1 / UM)
+def gravity_sag(theta: Float[Array, "6"], data: CalibrationData, state: UPSState) -> UPSState:
+    """Load-dependent strut length: the payload's weight ``W`` acting at A's origin along −z of B
+    loads strut ``i`` with the axial force ``t_i·W`` (statics at the true pose, tension > 0), which
+    stretches it by ``c_i·t_i``. ``c_i`` (mm) is the strut's compliance times the payload weight:
+    how much a tension equal to the whole payload's weight would lengthen it. The pose-independent
+    part of the load is absorbed by ``lengths0``; what remains is the load's change over the
+    travel (gravity along B's −z: one telescope elevation per data set)."""
+    loads = gravity_axial_loads(state.platform, state.base, state.v0, state.poses)
+    return state._replace(dlength=state.dlength + theta * loads)
+
+
+def _same_physics(effect: Effect) -> Effect:
+    """Register a 6-PSS effect whose definition holds for struts unchanged (it changes only the
+    reading's offset or the measured poses) under the 6-UPS model."""
+    return register_effect(
+        MODEL_NAME,
+        effect.name,
+        n_params=effect.n_params,
+        scale=effect.scale,
+        unit=effect.unit,
+        report_factor=effect.report_factor,
+        requires=effect.requires,
+        acts_on=effect.acts_on,
+        draw=effect.draw,
+    )(effect.apply)
+
+
+ups_backlash = _same_physics(backlash)
+ups_drift = _same_physics(drift)
+ups_tracker_misalignment = _same_physics(tracker_misalignment)
