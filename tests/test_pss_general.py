@@ -212,3 +212,11 @@ def test_command_line_param_set_names_the_family_it_needs(tmp_path, capsys):
     csv.write_text("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
     assert main(["calibrate", str(csv), "--geometry", "rubin_m2", "--param-set", "54"]) == 2
     assert "6-PSS parameter sets" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("param_set", ["36", "42", "54"])
+def test_discrepancy_model_refuses_a_generalised_mechanism(param_set):
+    """The 6-PSS discrepancy model is the paper's mechanism; tilts and rod lengths are its
+    candidate effects, not silently dropped geometry."""
+    with pytest.raises(ValueError, match="candidate effects"):
+        pss_model(general_mechanism(param_set))

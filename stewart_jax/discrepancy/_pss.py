@@ -210,9 +210,11 @@ def pss_model(
     if family != Geometry.family:
         raise ValueError(f"pss_model needs a 6-PSS mechanism, got a {family}; model_for(mechanism) picks the "
                          "model of its family")
-    if geometry.n_params != 36:
-        raise ValueError(f"the 6-PSS discrepancy model has the 36 joint-centre parameters of Wang et al. (2018); "
-                         f"this 6-PSS has {geometry.n_params}")
+    if geometry.n_params != 36 or not getattr(geometry, "is_paper_model", True):
+        raise ValueError("the 6-PSS discrepancy model is Wang et al. (2018)'s mechanism: vertical sliders, rod "
+                         "lengths from the zero pose, the 36 joint-centre parameters; this 6-PSS has "
+                         f"{geometry.n_params} parameters{'' if geometry.is_paper_model else ', axes or rod lengths'} "
+                         "(its slider tilts and rod lengths are the candidate effects actuator_tilt and zero_offset)")
     check_noise(sigma_um, sigma_arcsec, sigma_stroke_um)
     return PSSModel(
         geometry.params,

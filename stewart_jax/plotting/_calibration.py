@@ -199,23 +199,30 @@ def plot_parameter_std(
     param_std_mm: Any,
     *,
     actual_error_mm: Any = None,
+    names: Sequence[str] | None = None,
     title: str | None = None,
 ) -> Figure:
-    """Predicted standard deviation of each of the 36 calibrated parameters (µm, log axis),
-    for one or several pose sets (label → 36 values, mm), optionally with the actual
-    |estimate − truth| of one calibration (label → 36 values, mm) as markers."""
+    """Predicted standard deviation of each calibrated parameter (µm, log axis), for one or
+    several pose sets (label → n values, mm), optionally with the actual |estimate − truth| of
+    one calibration (label → n values, mm) as markers. ``names``: one label per parameter (e.g. a
+    mechanism's ``param_names``; default for 36: the 6-PSS joint centres ``A1x … B6z``)."""
     series = as_mapping(param_std_mm, "predicted std")
-    names = [f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)]
-    fig, ax = plt.subplots(figsize=(12, 4.2))
+    n = len(next(iter(series.values())))
+    if names is None:
+        names = ([f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)] if n == 36
+                 else [str(i) for i in range(n)])
+    if len(names) != n:
+        raise ValueError(f"{len(names)} names for {n} parameters")
+    fig, ax = plt.subplots(figsize=(max(12, 0.3 * n), 4.2))
     for i, (label, s) in enumerate(series.items()):
-        ax.semilogy(np.arange(36), np.maximum(s, 1e-12) * 1e3, "o-", ms=3, color=COLORS[i % len(COLORS)],
+        ax.semilogy(np.arange(n), np.maximum(s, 1e-12) * 1e3, "o-", ms=3, color=COLORS[i % len(COLORS)],
                     label=f"{label}: predicted std")
     if actual_error_mm is not None:
         for i, (label, e) in enumerate(as_mapping(actual_error_mm, "actual error").items()):
-            ax.semilogy(np.arange(36), np.maximum(np.abs(e), 1e-12) * 1e3, "x", ms=5,
+            ax.semilogy(np.arange(n), np.maximum(np.abs(e), 1e-12) * 1e3, "x", ms=5,
                         color=COLORS[(i + len(series)) % len(COLORS)], label=f"{label}: |estimate − truth|")
-    ax.set_xticks(np.arange(36), names, rotation=90, fontsize=7)
-    ax.set_xlabel("parameter (Ac_i then Bc_i, x/y/z)")
+    ax.set_xticks(np.arange(n), names, rotation=90, fontsize=7)
+    ax.set_xlabel("parameter")
     ax.set_ylabel("µm")
     return finish(fig, ax, title)
 
