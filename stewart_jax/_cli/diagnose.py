@@ -6,7 +6,6 @@ effect). The candidate names come from the effect registry."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 
@@ -14,7 +13,9 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..calibration._csv import read_csv
     from ..discrepancy import diagnose, model_for
     from ..mechanism._registry import load_mechanism
+    from ._common import check_outputs
 
+    check_outputs(args, json="--json", out_model="--out-model")
     data = read_csv(args.file)
     geometry = load_mechanism(args.geometry)
     model = model_for(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
@@ -64,16 +65,21 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=2)
+        from ._common import write_json
+
+        write_json(args.json, out)
     else:
-        print(json.dumps(out))
+        from .._files import json_text
+
+        print(json_text(out, indent=None), end="")
     return 0
 
 
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
     from ..discrepancy import simulate_hidden_effect, write_hidden_csv
+    from ._common import check_outputs
 
+    check_outputs(args, out="--out")
     effect = None if args.effect == "none" else args.effect
     sim = simulate_hidden_effect(
         args.seed, effect, args.magnitude, n_random=args.n_random, plan=not args.no_plan,

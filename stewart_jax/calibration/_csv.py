@@ -8,12 +8,14 @@ other columns ignored. Numbers are written with ``repr`` (lossless float64).
 from __future__ import annotations
 
 import csv
+import io
 import os
 from collections.abc import Mapping
 from decimal import Context, Decimal, InvalidOperation
 
 import numpy as np
 
+from .._files import write_text_atomic
 from ._problem import CalibrationData, make_calibration_data
 
 STROKE_COLUMNS = tuple(f"q{i}" for i in range(1, 7))
@@ -58,11 +60,12 @@ def write_csv(
             raise ValueError(f"extra column {key!r}: {len(names)} names for {v.shape[1]} columns")
         for i, n in enumerate(names):
             cols[n] = v[:, i]
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(cols)
-        for row in zip(*cols.values(), strict=True):
-            w.writerow([x if isinstance(x, str) else repr(float(x)) for x in row])
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(cols)
+    for row in zip(*cols.values(), strict=True):
+        w.writerow([x if isinstance(x, str) else repr(float(x)) for x in row])
+    write_text_atomic(path, buf.getvalue())
 
 
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944")

@@ -132,9 +132,9 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
         ],
         "geometry": mechanism.to_dict(),
     }
-    with open(path, "w") as f:
-        json.dump(out, f, indent=2)
-        f.write("\n")
+    from .._files import json_text, write_text_atomic
+
+    write_text_atomic(path, json_text(out))
 
 
 def _legacy_pss_geometry(d: dict[str, Any]) -> dict[str, Any]:
