@@ -16,7 +16,7 @@ no equilibrium. Feasibility is :func:`~stewart_jax.cable_robot.cabin_statics`'s 
   horizontal axis, no yaw) at which the position is feasible. NOTE: feasibility is a yes/no
   answer of a Newton solve that fails outside the region, so there is no gradient to follow:
   for ``n_axes`` tilt axes the tilt is scanned on a grid, bracketed, and bisected (one
-  ``vmap``-ed batch of static solves per step); the best axis is then refined on a finer fan
+  batch of static solves per step); the best axis is then refined on a finer fan
   of axes about it. The result is the boundary of the feasible set to ``tol`` rad.
 - ``"max-min-tension"``: the rotation vector (3 components, yaw included) maximising the least
   tension along any cable over the feasible attitudes, by a batched derivative-free pattern
@@ -33,7 +33,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._system import FastParams, check_position
-from ._workspace import CURVATURE_CENTRE, CableStatics, _map_jit
+from ._workspace import CURVATURE_CENTRE, CableStatics, assess, stack
 
 ATTITUDES = ("level", "towards-centre", "smallest-tilt", "max-min-tension")
 """The attitude readings :func:`solve_attitude` knows."""
@@ -102,19 +102,12 @@ def towards_centre_attitude(position: Float[ArrayLike, "3"]) -> Float[Array, "3 
 
 
 BATCH = 24
-"""Static solves per batch in the attitude searches (one compilation serves them all)."""
+"""Attitudes tried per iteration of the searches."""
 
 
-def _batch(params, position, Rs, floor, clearance):
-    # Batches shorter than BATCH are padded with their last attitude, so that every search
-    # reuses one compiled function.
-    Rs = jnp.asarray(Rs, jnp.float64)
-    n = Rs.shape[0]
-    if n < BATCH:
-        Rs = jnp.concatenate([Rs, jnp.broadcast_to(Rs[-1], (BATCH - n, 3, 3))])
-    out = _map_jit(params, jnp.broadcast_to(jnp.asarray(position, jnp.float64), (Rs.shape[0], 3)),
-                   Rs, jnp.asarray(floor, jnp.float64), jnp.asarray(clearance, jnp.float64))
-    return jax.tree.map(lambda a: a[:n], out)
+def _batch(params, position, Rs, floor, clearance) -> CableStatics:
+    return stack([assess(params, position, R, tension_floor=floor, clearance=clearance)
+                  for R in jnp.asarray(Rs, jnp.float64)])
 
 
 def _tilts(psi, theta):
@@ -127,7 +120,7 @@ def _index(tree, i):
 
 
 def _single(params, position, R, floor, clearance) -> CableStatics:
-    return _index(_batch(params, position, jnp.asarray(R)[None], floor, clearance), 0)
+    return assess(params, position, R, tension_floor=floor, clearance=clearance)
 
 
 def _fixed(params, position, kind, R, floor, clearance) -> AttitudeSolution:
@@ -232,7 +225,7 @@ def max_min_tension_attitude(
     that tries ``BATCH`` moves of length ``step`` (± the axes and random directions drawn
     afresh each iteration, so that no ridge between tied cables stops it for good), keeps the
     best feasible one, and halves ``step`` when none improves, down to ``tol`` rad. One
-    iteration is one ``vmap``-ed batch of static solves.
+    iteration is one batch of ``BATCH`` static solves.
     """
     check_position(position)
     pos = jnp.asarray(position, jnp.float64)

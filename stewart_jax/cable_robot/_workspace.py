@@ -48,7 +48,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from ._catenary import catenary_upper_end
-from ._statics import StaticSolution, static_equilibrium
+from ._statics import StaticSolution, static_equilibrium, static_equilibrium_jit
 from ._stewart import leg_kinematics
 from ._system import FastParams, cable_deltas, check_position, static_lower_motion, upper_motion
 
@@ -178,6 +178,7 @@ def cabin_statics(
     position: Float[ArrayLike, "3"],
     R: Float[ArrayLike, "3 3"] | None = None,
     *,
+    static: StaticSolution | None = None,
     tension_floor: float | Float[Array, ""] = 0.0,
     clearance: float | Float[Array, ""] = 0.0,
 ) -> CableStatics:
@@ -189,6 +190,8 @@ def cabin_statics(
 
     - ``params``: :class:`~stewart_jax.cable_robot.FastParams`.
     - ``position``: ``Float[Array, "3"]`` (m); ``R``: ``Float[Array, "3 3"]``.
+    - ``static``: the equilibrium at this pose if already solved (e.g. by
+      :data:`~stewart_jax.cable_robot.static_equilibrium_jit`); solved here when ``None``.
     - ``tension_floor``: least admissible tension anywhere in a cable (N), 0 by default.
     - ``clearance``: least admissible height of a cable above the reflector (m), 0 by default.
 
@@ -199,7 +202,7 @@ def cabin_statics(
     check_position(position)
     pos = jnp.asarray(position, jnp.float64)
     R = jnp.eye(3, dtype=jnp.float64) if R is None else jnp.asarray(R, jnp.float64)
-    st = static_equilibrium(params, pos, R)
+    st = static_equilibrium(params, pos, R) if static is None else static
     force, s0 = st.force, st.s0
     chord = jnp.linalg.norm(cable_deltas(params, pos, R), axis=-1)
     lower_ends = pos + params.anchors @ R.T
@@ -237,6 +240,40 @@ cabin_statics_jit = jax.jit(cabin_statics)
 """``jax.jit`` of :func:`cabin_statics`."""
 
 
+def assess(
+    params: FastParams,
+    position: Float[ArrayLike, "3"],
+    R: Float[ArrayLike, "3 3"] | None = None,
+    *,
+    tension_floor: float = 0.0,
+    clearance: float = 0.0,
+) -> CableStatics:
+    """:func:`cabin_statics` through two compiled functions: the 24×24 solve of
+    :data:`~stewart_jax.cable_robot.static_equilibrium_jit` (the one the rest of the package
+    compiles) and the tensions/feasibility on its result.
+
+    NOTE: on CPU a ``vmap`` of the 24×24 Newton solve is no faster per position than a loop
+    of jitted single solves (≈2 ms each: the batch iterates until its slowest member
+    converges), and it costs a compilation of its own (≈20 s); the searches and maps here
+    therefore loop over single solves."""
+    check_position(position)
+    pos = jnp.asarray(position, jnp.float64)
+    R = jnp.eye(3, dtype=jnp.float64) if R is None else jnp.asarray(R, jnp.float64)
+    st = static_equilibrium_jit(params, pos, R)
+    return _assess_jit(params, pos, R, st, jnp.asarray(tension_floor, jnp.float64),
+                       jnp.asarray(clearance, jnp.float64))
+
+
+@jax.jit
+def _assess_jit(params, pos, R, st, floor, clearance):
+    return cabin_statics(params, pos, R, static=st, tension_floor=floor, clearance=clearance)
+
+
+def stack(results: list) -> CableStatics:
+    """Stack a list of :class:`CableStatics` (or any equal pytrees) along a new leading axis."""
+    return jax.tree.map(lambda *a: jnp.stack(a), *results)
+
+
 def workspace_map(
     params: FastParams,
     positions: Float[ArrayLike, "n 3"],
@@ -245,22 +282,14 @@ def workspace_map(
     tension_floor: float = 0.0,
     clearance: float = 0.0,
 ) -> CableStatics:
-    """:func:`cabin_statics` at every row of ``positions`` (``vmap``; attitudes identity when
-    ``None``); every field gains a leading axis of length ``n``."""
-    pos = jnp.asarray(positions, jnp.float64)
-    if pos.ndim != 2 or pos.shape[-1] != 3:
-        raise ValueError(f"positions must have shape (n, 3), got {pos.shape}")
-    if not bool(jnp.all(jnp.isfinite(pos))):
-        raise ValueError("positions must be finite")
-    Rs = (jnp.broadcast_to(jnp.eye(3), (pos.shape[0], 3, 3)) if attitudes is None
-          else jnp.asarray(attitudes, jnp.float64))
+    """:func:`cabin_statics` at every row of ``positions`` (attitudes identity when ``None``),
+    through :func:`assess`; every field gains a leading axis of length ``n``."""
+    pos = np.asarray(positions, dtype=np.float64)
+    if pos.ndim != 2 or pos.shape[-1] != 3 or not np.all(np.isfinite(pos)):
+        raise ValueError(f"positions must be a finite (n, 3) array in metres, got shape {pos.shape}")
+    Rs = (np.broadcast_to(np.eye(3), (pos.shape[0], 3, 3)) if attitudes is None
+          else np.asarray(attitudes, dtype=np.float64))
     if Rs.shape != (pos.shape[0], 3, 3):
         raise ValueError(f"attitudes must have shape ({pos.shape[0]}, 3, 3), got {Rs.shape}")
-    return _map_jit(params, pos, Rs, jnp.asarray(tension_floor, jnp.float64),
-                    jnp.asarray(clearance, jnp.float64))
-
-
-@jax.jit
-def _map_jit(params, pos, Rs, floor, clearance):
-    return jax.vmap(lambda p, R: cabin_statics(params, p, R, tension_floor=floor,
-                                               clearance=clearance))(pos, Rs)
+    return stack([assess(params, p, R, tension_floor=tension_floor, clearance=clearance)
+                  for p, R in zip(pos, Rs, strict=True)])
