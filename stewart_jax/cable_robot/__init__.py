@@ -59,6 +59,7 @@ from ._modes import (
     cable_string_modes as cable_string_modes,
     modes_from_matrices as modes_from_matrices,
     modes_map as modes_map,
+    paper_momentum_matrix as paper_momentum_matrix,
     static_wrench as static_wrench,
 )
 from ._scenario import (
@@ -109,8 +110,10 @@ from ._workspace import (
     CURVATURE_CENTRE as CURVATURE_CENTRE,
     FOCAL_RADIUS as FOCAL_RADIUS,
     REFLECTOR_RADIUS as REFLECTOR_RADIUS,
-    STATUS as WORKSPACE_STATUS,
+    WORKSPACE_STATUS as WORKSPACE_STATUS,
+    AssemblyBodies as AssemblyBodies,
     CableStatics as CableStatics,
+    assembly_bodies as assembly_bodies,
     assembly_centre_of_mass as assembly_centre_of_mass,
     cabin_statics as cabin_statics,
     cabin_statics_jit as cabin_statics_jit,
@@ -121,3 +124,4 @@ from ._workspace import (
     workspace_map as workspace_map,
     zenith_angle as zenith_angle,
 )
+

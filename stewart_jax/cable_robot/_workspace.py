@@ -17,7 +17,7 @@ Nan R. D., *Five-hundred-meter aperture spherical radio telescope (FAST)*, Scien
 so its centre of curvature is ``(0, 0, 300)`` m; the aperture is 500 m across (rim at a
 horizontal radius of 250 m, height 300 − √(300² − 250²) = 134.17 m). The feed moves on the
 focal surface, the sphere of radius 160 m about the centre of curvature: Table 2's four cabin
-positions lie on it to 0.02 m (``z = 300 − √(160² − x²)``: 140.0, 142.84, 151.68, 167.71 m).
+positions lie on it to 0.04 m (they are given to 0.1 m) (``z = 300 − √(160² − x²)``: 140.0, 142.84, 151.68, 167.71 m).
 
 Feasible (:class:`CableStatics`) means, physically:
 
@@ -63,7 +63,7 @@ FOCAL_RADIUS = 160.0
 MAX_SAG_RATIO = 1.0
 """Short-branch bound: a cable with ``s0 > (1 + MAX_SAG_RATIO) × chord`` is a loop."""
 
-STATUS = ("feasible", "no_equilibrium", "slack", "sag_on_reflector", "loop_branch")
+WORKSPACE_STATUS = ("feasible", "no_equilibrium", "slack", "sag_on_reflector", "loop_branch")
 """Names of :attr:`CableStatics.status` codes 0–4, the first failed condition in this order:
 no equilibrium, loop branch, sag on the reflector, slack."""
 
@@ -84,7 +84,7 @@ class CableStatics(NamedTuple):
     - ``moment_about_com``: ``Float[Array, "3"]``, moment of gravity and cable forces about
       the assembly's centre of mass (N·m): zero at an equilibrium, a check.
     - ``converged``, ``short_branch``, ``feasible``: ``Bool[Array, ""]``.
-    - ``status``: ``Int[Array, ""]``, index into :data:`STATUS`.
+    - ``status``: ``Int[Array, ""]``, index into :data:`WORKSPACE_STATUS`.
     """
 
     static: StaticSolution
@@ -154,23 +154,53 @@ def lowest_points(
     return low, jnp.linalg.norm(k, axis=-1)
 
 
+class AssemblyBodies(NamedTuple):
+    """The 14 rigid bodies of the suspended assembly held at rest (cabin + upper platform, six
+    upper and six lower leg parts, lower platform), in G.
+
+    - ``mass``: ``Float[Array, "14"]`` (kg); ``centre``: ``Float[Array, "14 3"]``, centres of
+      mass relative to C's origin (m); ``inertia``: ``Float[Array, "14 3 3"]``, central
+      inertias (kg·m²).
+    """
+
+    mass: Float[Array, "14"]
+    centre: Float[Array, "14 3"]
+    inertia: Float[Array, "14 3 3"]
+
+
+def assembly_bodies(params: FastParams, R: Float[Array, "3 3"]) -> AssemblyBodies:
+    """Masses, centres of mass (relative to C's origin) and central inertias of the 14 bodies
+    at cabin attitude ``R`` with the lower platform at ``B t_P = (0, 0, h)`` (Table 1; leg
+    frames of eqs. 35–42)."""
+    sp = params.stewart
+    zero = jnp.zeros(3, jnp.float64)
+    legs = leg_kinematics(sp, upper_motion(params, R, zero, zero, zero), static_lower_motion(params.h))
+    G_tB = R @ params.C_t_B
+    R_B = R @ params.C_R_B
+    RL, RLt = legs.R_L, jnp.swapaxes(legs.R_L, -1, -2)
+    centre = jnp.concatenate([
+        (R @ params.r_CB0)[None],
+        G_tB + legs.G_B + legs.r_U,
+        G_tB + legs.G_B + legs.r_D,
+        (G_tB + R_B @ (jnp.array([0.0, 0.0, 1.0]) * params.h) + R_B @ sp.r_P0)[None],
+    ])
+    inertia = jnp.concatenate([
+        (R @ params.I_CB @ R.T)[None], RL @ sp.I_U @ RLt, RL @ sp.I_D @ RLt,
+        (R_B @ sp.I_P @ R_B.T)[None],
+    ])
+    mass = jnp.concatenate([params.m_CB[None], jnp.full(6, sp.m_U), jnp.full(6, sp.m_D),
+                            sp.m_P[None]])
+    return AssemblyBodies(mass, centre, inertia)
+
+
 def assembly_centre_of_mass(
     params: FastParams, position: Float[Array, "3"], R: Float[Array, "3 3"]
 ) -> tuple[Float[Array, ""], Float[Array, "3"]]:
     """Mass (kg) and centre of mass (G, m) of the suspended assembly at rest: cabin + upper
     platform, the six legs' two parts, and the lower platform at ``B t_P = (0, 0, h)``."""
-    sp = params.stewart
-    zero = jnp.zeros(3, jnp.float64)
-    legs = leg_kinematics(sp, upper_motion(params, R, zero, zero, zero), static_lower_motion(params.h))
-    G_tB = position + R @ params.C_t_B
-    x_U = G_tB + legs.G_B + legs.r_U
-    x_D = G_tB + legs.G_B + legs.r_D
-    R_B = R @ params.C_R_B
-    x_P = G_tB + R_B @ (jnp.array([0.0, 0.0, 1.0]) * params.h) + R_B @ sp.r_P0
-    x_C = position + R @ params.r_CB0
-    m = params.m_CB + sp.m_P + 6.0 * (sp.m_U + sp.m_D)
-    first = (params.m_CB * x_C + sp.m_P * x_P + sp.m_U * jnp.sum(x_U, 0) + sp.m_D * jnp.sum(x_D, 0))
-    return m, first / m
+    b = assembly_bodies(params, R)
+    m = jnp.sum(b.mass)
+    return m, position + jnp.sum(b.mass[:, None] * b.centre, axis=0) / m
 
 
 def cabin_statics(
