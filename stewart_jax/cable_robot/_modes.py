@@ -45,7 +45,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from ._catenary import _solve3, catenary_jacobian
 from ._scenario import system_momentum
-from ._statics import StaticSolution, static_equilibrium
+from ._statics import StaticSolution, static_equilibrium, static_equilibrium_jit
 from ._system import FastParams, cable_deltas, check_position, static_lower_motion
 from ._workspace import assembly_bodies, assembly_centre_of_mass
 
@@ -211,17 +211,21 @@ cabin_modes_jit = jax.jit(cabin_modes)
 
 
 @jax.jit
-def _modes_batch(params, pos, Rs):
-    return jax.vmap(lambda p, R: cabin_modes(params, p, R))(pos, Rs)
+def _modes_batch(params, pos, Rs, statics):
+    return jax.vmap(lambda p, R, st: cabin_modes(params, p, R, st))(pos, Rs, statics)
 
 
 def modes_map(
     params: FastParams,
     positions: Float[ArrayLike, "n 3"],
     attitudes: Float[ArrayLike, "n 3 3"] | None = None,
+    statics: StaticSolution | None = None,
 ) -> CabinModes:
-    """:func:`cabin_modes` at every row of ``positions`` (one ``vmap``-ed, jitted call; attitudes
-    identity when ``None``); every field gains a leading axis ``n``."""
+    """:func:`cabin_modes` at every row of ``positions`` (attitudes identity when ``None``):
+    the static equilibria (given stacked in ``statics``, or solved one by one with
+    :data:`~stewart_jax.cable_robot.static_equilibrium_jit`), then stiffness, mass matrix and
+    modes in one ``vmap``-ed, jitted call; every field gains a leading axis ``n``. Positions
+    without an equilibrium have ``ok = False``."""
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[-1] != 3 or not np.all(np.isfinite(pos)):
         raise ValueError(f"positions must be a finite (n, 3) array, got shape {pos.shape}")
@@ -229,7 +233,11 @@ def modes_map(
           else np.asarray(attitudes, dtype=np.float64))
     if Rs.shape != (pos.shape[0], 3, 3):
         raise ValueError(f"attitudes must have shape ({pos.shape[0]}, 3, 3), got {Rs.shape}")
-    return _modes_batch(params, jnp.asarray(pos), jnp.asarray(Rs))
+    if statics is None:
+        sts = [static_equilibrium_jit(params, jnp.asarray(p), jnp.asarray(R))
+               for p, R in zip(pos, Rs, strict=True)]
+        statics = jax.tree.map(lambda *a: jnp.stack(a), *sts)
+    return _modes_batch(params, jnp.asarray(pos), jnp.asarray(Rs), statics)
 
 
 class CableStringModes(NamedTuple):
