@@ -14,6 +14,7 @@ from stewart_jax.cable_robot import (
     WORKSPACE_STATUS,
     anchor_positions,
     assembly_centre_of_mass,
+    assess,
     cabin_statics,
     focal_surface_point,
     max_min_tension_attitude,
@@ -129,7 +130,7 @@ def test_kilometre_loop_root_is_rejected():
             break
     assert float(st.s0[4]) > 1000.0
     assert np.max(np.abs(np.asarray(st.residual[:18]))) < 1e-8
-    cs = cabin_statics(PARAMS, focal(x), jnp.eye(3), static=st)
+    cs = assess(PARAMS, focal(x), jnp.eye(3), static=st)
     assert bool(cs.converged) and not bool(cs.feasible) and not bool(cs.short_branch)
     assert WORKSPACE_STATUS[int(cs.status)] == "loop_branch"
     assert float(cs.clearance_m[4]) < -100.0  # hundreds of metres under the reflector
@@ -154,7 +155,7 @@ def test_smallest_tilt_makes_the_fourth_position_feasible():
     assert sol.found and bool(sol.statics.feasible)
     assert 0.0 < sol.tilt_rad < np.deg2rad(10.0)
     # 1 % less tilt about the same axis is infeasible: the search sits on the boundary
-    less = cabin_statics(PARAMS, focal(90.0), rotation_from_vector(0.99 * np.asarray(sol.rotation_vector)))
+    less = assess(PARAMS, focal(90.0), rotation_from_vector(0.99 * np.asarray(sol.rotation_vector)))
     assert not bool(less.feasible)
 
 
@@ -179,3 +180,26 @@ def test_bad_inputs_are_rejected():
         workspace_map(PARAMS, np.zeros((2, 2)))
     with pytest.raises(ValueError, match="position"):
         cabin_statics(PARAMS, [0.0, np.nan, 140.0])
+
+
+def test_cli_reports_infeasible_position_before_simulating(tmp_path, capsys):
+    # Table 2's fourth position with a level cabin: refused with a clear message and strict
+    # JSON (null where there is no number), without running the scenario.
+    import json
+
+    from stewart_jax._cli import build_parser, main
+
+    out = tmp_path / "o.json"
+    assert main(["fast", "--position", "90,0,167.7", "--json", str(out)]) == 1
+    assert "no equilibrium" in capsys.readouterr().err
+
+    def reject(c):
+        raise ValueError(c)
+
+    data = json.loads(out.read_text(), parse_constant=reject)
+    assert data["workspace_status"] == "no_equilibrium" and data["tensions_n"] == [None] * 6
+    assert data["attitude"]["kind"] == "level" and "axes" not in data
+    assert main(["fast", "--position", "0,0,-1"]) == 2  # below the reflector
+    assert "below" in capsys.readouterr().err
+    args = build_parser().parse_args(["fast", "--attitude", "auto", "--modes"])
+    assert args.attitude == "auto" and args.modes

@@ -240,6 +240,22 @@ def modes_map(
     return _modes_batch(params, jnp.asarray(pos), jnp.asarray(Rs), statics)
 
 
+def cable_inertia_matrix(
+    params: FastParams, static: StaticSolution, R: Float[ArrayLike, "3 3"] | None = None
+) -> Float[Array, "6 6"]:
+    """Rayleigh–Ritz estimate of the cables' own inertia seen by the cabin (kg, kg·m, kg·m²):
+    each cable moves in its quasi-static shape for a displaced anchor, taken linear in the
+    material coordinate (0 at the tower, the anchor's displacement at the cabin), so its
+    kinetic energy is ``½ (ρ s0 / 3) |δ_A|²`` and ``M_c = Σ (ρ s0 / 3) A_iᵀ A_i`` with
+    ``δ_A = A_i q = δt − [R r_A]× δφ``. Valid only well below the cables' string frequencies
+    (:func:`cable_string_modes`), where the quasi-static shape holds."""
+    R = jnp.eye(3, dtype=jnp.float64) if R is None else jnp.asarray(R, jnp.float64)
+    r = params.anchors @ R.T
+    A = jnp.concatenate([jnp.broadcast_to(jnp.eye(3), (6, 3, 3)), -jax.vmap(_skew)(r)], axis=2)
+    m = params.cable.rho * static.s0 / 3.0
+    return jnp.einsum("i,iak,ial->kl", m, A, A)
+
+
 class CableStringModes(NamedTuple):
     """First vibration frequencies of each cable on its own, ends fixed (Irvine 1981).
 

@@ -275,12 +275,13 @@ def assess(
     position: Float[ArrayLike, "3"],
     R: Float[ArrayLike, "3 3"] | None = None,
     *,
+    static: StaticSolution | None = None,
     tension_floor: float = 0.0,
     clearance: float = 0.0,
 ) -> CableStatics:
     """:func:`cabin_statics` through two compiled functions: the 24×24 solve of
     :data:`~stewart_jax.cable_robot.static_equilibrium_jit` (the one the rest of the package
-    compiles) and the tensions/feasibility on its result.
+    compiles; skipped when ``static`` is given) and the tensions/feasibility on its result.
 
     NOTE: on CPU a ``vmap`` of the 24×24 Newton solve is no faster per position than a loop
     of jitted single solves (≈2 ms each: the batch iterates until its slowest member
@@ -289,7 +290,7 @@ def assess(
     check_position(position)
     pos = jnp.asarray(position, jnp.float64)
     R = jnp.eye(3, dtype=jnp.float64) if R is None else jnp.asarray(R, jnp.float64)
-    st = static_equilibrium_jit(params, pos, R)
+    st = static_equilibrium_jit(params, pos, R) if static is None else static
     return _assess_jit(params, pos, R, st, jnp.asarray(tension_floor, jnp.float64),
                        jnp.asarray(clearance, jnp.float64))
 
