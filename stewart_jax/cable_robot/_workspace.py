@@ -34,8 +34,8 @@ NOTE (kilometre-long loops): near the slack boundary the physical root itself ca
 whose horizontal force ``H → 0`` and whose length ``s0 → ∞``: eqs. 11–13 are then satisfied by a
 cable that hangs hundreds of metres down and back up. Such a root is a valid solution of the
 equations (Newton converges to it, residual ~1e-9) but the cable would lie on the reflector;
-conditions 3–4 reject it. Condition 4 only names the case; 3 alone already rejects it at every
-point of the focal surface.
+conditions 3–4 reject it (4 names the case; the loops the tests build also fail 3 by
+hundreds of metres).
 """
 
 from __future__ import annotations
