@@ -114,3 +114,57 @@ else:
         a, b = float(getattr(centre, name)[0]), float(getattr(half, name)[0])
         print(f"x {name:>11}: dt {DT * 1e3:g} ms {a:.6g}, dt {DT * 500:g} ms {b:.6g} "
               f"(relative change {abs(a - b) / abs(b):.2e})")
+
+# %% [markdown]
+# ## Beyond the paper: feasible workspace, cabin attitude and vibration modes
+#
+# The feed moves on the focal surface, the sphere of radius 160 m about the reflector's centre
+# of curvature (0, 0, 300) m (Table 2's positions lie on it). A pose is *feasible* when the 24×24
+# equilibrium exists with every cable in tension, on the short catenary branch, with its sag clear
+# of the reflector (`cable_robot.cabin_statics`). With a level cabin the fourth Table 2 position
+# has no equilibrium; a small tilt makes it feasible (`cable_robot.smallest_feasible_tilt`). About
+# each equilibrium the cabin's 6×6 stiffness (s0 fixed, implicit derivatives of the catenaries)
+# and the rigid 14-body mass matrix give the natural frequencies (`cable_robot.cabin_modes`);
+# `docs/cable_robot.md` and `benchmarks/results/fast_modes.md` have the full study.
+
+# %%
+print(f"{'position (m)':>20} {'attitude':>14} {'tilt (°)':>8} {'tensions at the cabin (kN)':>44} "
+      f"{'f1…f6 (Hz)':>10}")
+for pos in cable_robot.PAPER_POSITIONS:
+    sol = cable_robot.solve_attitude(params, np.array(pos), "level")
+    if not bool(sol.statics.feasible):
+        sol = cable_robot.smallest_feasible_tilt(params, np.array(pos), n_axes=12, n_fan=4, tol=1e-4)
+    m = cable_robot.cabin_modes_jit(params, np.array(pos), np.asarray(sol.R), sol.statics.static)
+    print(f"{str(list(pos)):>20} {sol.kind:>14} {np.rad2deg(sol.tilt_rad):8.2f} "
+          f"{', '.join(f'{t / 1e3:6.1f}' for t in np.asarray(sol.statics.tension_n)):>44} "
+          f"{', '.join(f'{f:.3f}' for f in np.asarray(m.frequencies_hz))}")
+
+# %% [markdown]
+# ### Maps over the focal surface (level cabin)
+#
+# Least cable tension where the level cabin is feasible, and its lowest natural frequency. Quick
+# mode uses a coarse map (13 positions); the benchmark maps the whole surface with tilts.
+
+# %%
+n_zen, n_az, max_zen = (3, 6, 30.0) if QUICK else (9, 24, 40.0)
+zen = np.deg2rad(np.linspace(0.0, max_zen, n_zen))
+az = np.linspace(0.0, 2 * np.pi, n_az, endpoint=False)
+grid = [(0.0, 0.0)] + [(z, a) for z in zen[1:] for a in az]
+positions = np.asarray(cable_robot.focal_surface_point(np.array([g[0] for g in grid]),
+                                                       np.array([g[1] for g in grid])))
+ws = cable_robot.workspace_map(params, positions)
+feasible = np.asarray(ws.feasible)
+f1 = np.full(len(positions), np.nan)
+for i in np.flatnonzero(feasible):
+    f1[i] = float(cable_robot.cabin_modes_jit(params, positions[i], np.eye(3),
+                                              jax.tree.map(lambda a, i=i: a[i], ws.static)).frequencies_hz[0])
+print(f"{feasible.sum()} of {len(positions)} positions feasible with a level cabin; "
+      f"first frequency {np.nanmin(f1):.3f}–{np.nanmax(f1):.3f} Hz")
+plotting.show(plotting.plot_fast_focal_map(positions, np.min(np.asarray(ws.min_tension_n), 1) / 1e3,
+                                           feasible=feasible, label="least cable tension (kN)",
+                                           title="Level cabin on the focal surface"),
+              figure_path("03_workspace.png"))
+plotting.show(plotting.plot_fast_focal_map(positions, f1, feasible=feasible,
+                                           label="first natural frequency (Hz)",
+                                           title="Lowest cabin mode (level cabin)"),
+              figure_path("03_first_frequency.png"))

@@ -5,6 +5,15 @@ JSON keys: ``axes`` → ``x``/``y``/``z`` → ``correlation``, ``std_m``, ``ampl
 error|), ``peak_to_peak_m``; plus ``position_m``, ``duration_s``, ``dt_s``, ``start``, ``method``,
 ``static_converged``, ``failed_cable_solves``, ``s0_m``, ``tension0_N`` and, at Table 2's
 positions, ``paper`` (the published std and amplitude per axis).
+
+Beyond the paper: ``status`` (``"ok"`` or why not), ``workspace_status`` (feasible,
+no_equilibrium, slack, sag_on_reflector, loop_branch), ``attitude`` (the reading, rotation
+vector, tilt, ``G R_C``), ``tensions_n`` (six tensions at the cabin anchors),
+``min_tension_n``, ``slack_margin_n``, ``clearance_m`` and, with ``--modes``, ``modes`` →
+``frequencies_hz`` and ``shapes`` (per mode: ``translation_m`` and ``rotation_rad`` of the
+M-normalised shape) and ``cable_string_hz``. The JSON is strict: a number that is not finite
+is written as ``null``. A cabin whose statics are infeasible is reported, with its JSON, before
+any simulation, with exit status 1; a cabin below the reflector's surface is refused (exit 2).
 """
 
 from __future__ import annotations
@@ -46,8 +55,44 @@ def add_fast_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("verlet", "rk4"), default="verlet",
                    help="time integrator (default verlet)")
     p.add_argument("--plot", metavar="OUT.png", help="save Figs. 6-9 (time series) to a PNG")
+    p.add_argument("--attitude", default="level",
+                   choices=("auto", "level", "towards-centre", "smallest-tilt", "max-min-tension"),
+                   help="cabin attitude G R_C (default level, the paper's; auto: level where "
+                   "feasible, else the smallest feasible tilt; towards-centre: feed axis along "
+                   "the focal-surface normal)")
+    p.add_argument("--modes", action="store_true",
+                   help="add the cabin's natural frequencies and mode shapes on its cables")
     p.set_defaults(func=run_fast)
     return p
+
+
+def _finite(x):
+    """``x`` with every non-finite float replaced by ``None`` (strict JSON)."""
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_finite(v) for v in x]
+    if isinstance(x, float | np.floating):
+        return float(x) if np.isfinite(x) else None
+    return x
+
+
+def _write_json(path: str, out: dict) -> None:
+    from .._files import write_text_atomic
+
+    write_text_atomic(path, json.dumps(_finite(out), indent=2, allow_nan=False))
+
+
+def _statics(args, params):
+    """Attitude and statics at ``args.position``; ``(solution, reading used)``."""
+    from ..cable_robot import solve_attitude
+
+    if args.attitude != "auto":
+        return solve_attitude(params, np.asarray(args.position), args.attitude)
+    level = solve_attitude(params, np.asarray(args.position), "level")
+    if bool(level.statics.feasible):
+        return level
+    return solve_attitude(params, np.asarray(args.position), "smallest-tilt")
 
 
 def run_fast(args: argparse.Namespace) -> int:
@@ -57,20 +102,56 @@ def run_fast(args: argparse.Namespace) -> int:
 
     import stewart_jax  # noqa: F401  (float64)
 
-    from ..cable_robot import PAPER_TABLE2, paper_fast_params, run_scenario_jit
+    from ..cable_robot import (
+        PAPER_TABLE2,
+        WORKSPACE_STATUS,
+        attitude_summary,
+        cabin_modes_jit,
+        cable_string_modes,
+        paper_fast_params,
+        reflector_clearance,
+        run_scenario_jit,
+    )
 
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
         return 2
+    if float(reflector_clearance(np.asarray(args.position))) <= 0.0:
+        print(f"error: cabin position {list(args.position)} m is at or below the reflector's surface "
+              "(sphere of radius 300 m through the origin) or the ground", file=sys.stderr)
+        return 2
     params = paper_fast_params()
+    sol = _statics(args, params)
+    cs = sol.statics
+    status = WORKSPACE_STATUS[int(cs.status)]
+    out = {
+        "position_m": list(args.position),
+        "attitude": attitude_summary(sol),
+        "workspace_status": status,
+        "tensions_n": np.asarray(cs.tension_n).tolist(),
+        "min_tension_n": np.asarray(cs.min_tension_n).tolist(),
+        "slack_margin_n": float(cs.slack_margin_n),
+        "clearance_m": np.asarray(cs.clearance_m).tolist(),
+    }
+    if status != "feasible":
+        out["status"] = status
+        if status == "no_equilibrium":
+            out["tensions_n"] = out["min_tension_n"] = [None] * 6
+            out["slack_margin_n"], out["clearance_m"] = None, [None] * 6
+        print(f"error: no feasible static equilibrium at {list(args.position)} m with the "
+              f"{sol.kind} attitude (tilt {np.rad2deg(sol.tilt_rad):.2f}°): {status.replace('_', ' ')}"
+              "; not simulated (try --attitude auto)", file=sys.stderr)
+        if args.json:
+            _write_json(args.json, out)
+        return 1
+    R = None if sol.kind == "level" or not float(sol.tilt_rad) else jnp.asarray(sol.R)
     t0 = time.perf_counter()
     res = run_scenario_jit(params, jnp.asarray(args.position, jnp.float64), duration=args.duration,
-                           dt=args.dt, start=args.start, method=args.method)
+                           dt=args.dt, start=args.start, method=args.method, attitude=R)
     jax.block_until_ready(res)
     seconds = time.perf_counter() - t0
     e = np.asarray(res.extra_error)
-    out = {
-        "position_m": list(args.position),
+    out.update({
         "duration_s": args.duration,
         "dt_s": args.dt,
         "start": args.start,
@@ -89,16 +170,29 @@ def run_fast(args: argparse.Namespace) -> int:
             }
             for k, ax in enumerate("xyz")
         },
-    }
+    })
     key = tuple(float(v) for v in args.position)
     if key in PAPER_TABLE2:
         out["paper"] = {ax: {"std_m": v[0], "amplitude_m": v[1]} for ax, v in PAPER_TABLE2[key].items()}
+    if args.modes:
+        pos = jnp.asarray(args.position, jnp.float64)
+        m = cabin_modes_jit(params, pos, jnp.asarray(sol.R), cs.static)
+        shapes = np.asarray(m.shapes)
+        out["modes"] = {
+            "status": "ok" if bool(m.ok) and bool(m.stable) else ("unstable" if bool(m.ok) else "failed"),
+            "frequencies_hz": np.asarray(m.frequencies_hz).tolist(),
+            "shapes": [{"translation_m": shapes[:3, k].tolist(), "rotation_rad": shapes[3:, k].tolist()}
+                       for k in range(6)],
+            "shape_normalisation": "M-orthonormal: shapeᵀ M shape = 1 (M in kg, kg·m, kg·m²)",
+            "cable_string_hz": np.asarray(cable_string_modes(params, pos, cs.static, sol.R)
+                                          .taut_string_hz).tolist(),
+        }
     ok = out["static_converged"] and out["failed_cable_solves"] == 0
-    if not out["static_converged"]:
-        print(f"warning: no static equilibrium with positive cable lengths at {list(args.position)} "
-              "(G R_C = I); results are not meaningful", file=sys.stderr)
-    print(f"FAST scenario at {list(args.position)} m, {args.duration} s, dt {args.dt} s, "
+    out["status"] = "ok" if ok else "simulation_failed"
+    print(f"FAST scenario at {list(args.position)} m ({sol.kind} attitude, tilt "
+          f"{np.rad2deg(sol.tilt_rad):.3f}°), {args.duration} s, dt {args.dt} s, "
           f"start={args.start}, {args.method} ({seconds:.1f} s incl. compile)")
+    print("cable tensions at the cabin (kN): " + ", ".join(f"{t / 1e3:.1f}" for t in out["tensions_n"]))
     print(f"{'axis':>4} {'correlation':>12} {'std (m)':>12} {'amplitude (m)':>14} {'p-p (m)':>12}"
           + (f" {'paper std':>11} {'paper amp':>11}" if "paper" in out else ""))
     for ax, v in out["axes"].items():
@@ -107,9 +201,10 @@ def run_fast(args: argparse.Namespace) -> int:
         if "paper" in out:
             line += f" {out['paper'][ax]['std_m']:11.4e} {out['paper'][ax]['amplitude_m']:11.4e}"
         print(line)
+    if args.modes:
+        print("natural frequencies (Hz): " + ", ".join(f"{f:.4f}" for f in out["modes"]["frequencies_hz"]))
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=2)
+        _write_json(args.json, out)
     if args.plot:
         _plot(res, args.plot)
     return 0 if ok else 1

@@ -15,8 +15,24 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
 - :mod:`._statics` — the 24×24 initial equilibrium.
 - :mod:`._coupled` — the coupled time simulation (Fig. 5) inside ``lax.scan``.
 - :mod:`._scenario` — eqs. 61–66: the 5 Hz, 10 mm scenario, Table 2, Figs. 6–9.
+- :mod:`._workspace` — beyond the paper: tension-feasible workspace on the focal surface.
+- :mod:`._attitude` — beyond the paper: cabin attitudes (level, towards the centre of
+  curvature, smallest feasible tilt, maximum least tension).
+- :mod:`._modes` — beyond the paper: stiffness, mass matrix, natural frequencies and mode
+  shapes of the cabin on its cables; the cables' own string frequencies.
 """
 
+from ._attitude import (
+    ATTITUDES as ATTITUDES,
+    AttitudeSolution as AttitudeSolution,
+    attitude_summary as attitude_summary,
+    max_min_tension_attitude as max_min_tension_attitude,
+    rotation_from_vector as rotation_from_vector,
+    smallest_feasible_tilt as smallest_feasible_tilt,
+    solve_attitude as solve_attitude,
+    tilt_angle as tilt_angle,
+    towards_centre_attitude as towards_centre_attitude,
+)
 from ._catenary import (
     CableParams as CableParams,
     CatenarySolution as CatenarySolution,
@@ -32,6 +48,20 @@ from ._coupled import (
     matrix_to_quat as matrix_to_quat,
     quat_to_matrix as quat_to_matrix,
     simulate as simulate,
+)
+from ._modes import (
+    CabinModes as CabinModes,
+    CableStringModes as CableStringModes,
+    cabin_mass_matrix as cabin_mass_matrix,
+    cabin_modes as cabin_modes,
+    cabin_modes_jit as cabin_modes_jit,
+    cabin_stiffness as cabin_stiffness,
+    cable_inertia_matrix as cable_inertia_matrix,
+    cable_string_modes as cable_string_modes,
+    modes_from_matrices as modes_from_matrices,
+    modes_map as modes_map,
+    paper_momentum_matrix as paper_momentum_matrix,
+    static_wrench as static_wrench,
 )
 from ._scenario import (
     PAPER_CORRELATION_CENTRE as PAPER_CORRELATION_CENTRE,
@@ -76,3 +106,24 @@ from ._system import (
     tower_positions as tower_positions,
     upper_motion as upper_motion,
 )
+from ._workspace import (
+    APERTURE_RADIUS as APERTURE_RADIUS,
+    CURVATURE_CENTRE as CURVATURE_CENTRE,
+    FOCAL_RADIUS as FOCAL_RADIUS,
+    REFLECTOR_RADIUS as REFLECTOR_RADIUS,
+    WORKSPACE_STATUS as WORKSPACE_STATUS,
+    AssemblyBodies as AssemblyBodies,
+    CableStatics as CableStatics,
+    assembly_bodies as assembly_bodies,
+    assembly_centre_of_mass as assembly_centre_of_mass,
+    assess as assess,
+    cabin_statics as cabin_statics,
+    cabin_statics_jit as cabin_statics_jit,
+    cable_profile as cable_profile,
+    focal_surface_point as focal_surface_point,
+    lowest_points as lowest_points,
+    reflector_clearance as reflector_clearance,
+    workspace_map as workspace_map,
+    zenith_angle as zenith_angle,
+)
+

@@ -182,6 +182,7 @@ def run_scenario(
     amplitude: float = PAPER_AMPLITUDE,
     frequency: float = PAPER_FREQUENCY,
     method: str = "verlet",
+    attitude: Float[Array, "3 3"] | None = None,
 ) -> ScenarioResult:
     """The §6 scenario at one cabin position (traceable in ``params`` and ``position``;
     ``duration``, ``dt``, ``start`` and ``method`` are static).
@@ -196,6 +197,9 @@ def run_scenario(
     - ``amplitude``, ``frequency``: of the lower platform's motion (traceable; 0 amplitude
       holds the platform still).
     - ``method``: time integrator of :func:`simulate`.
+    - ``attitude``: ``G R_C(0)`` (traceable); ``None`` is the paper's ``I`` (eq. 61). The
+      lower platform then moves along the tilted B's x axis, and eq. 66 subtracts that
+      planned motion.
     """
     if start not in ("rest", "momentum"):
         raise ValueError(f"start must be 'rest' or 'momentum', got {start!r}")
@@ -204,8 +208,8 @@ def run_scenario(
         raise ValueError(f"duration and dt must be positive, got {duration}, {dt}")
     n_steps = int(round(duration / dt))
     position = jnp.asarray(position, jnp.float64)
-    I3 = jnp.eye(3, dtype=jnp.float64)
-    static = static_equilibrium(params, position, I3)
+    R0 = jnp.eye(3, dtype=jnp.float64) if attitude is None else jnp.asarray(attitude, jnp.float64)
+    static = static_equilibrium(params, position, R0)
     motion = sine_motion(params.h, amplitude, frequency)
     zero = jnp.zeros(3, dtype=jnp.float64)
     vel0, omega0 = zero, zero
@@ -213,13 +217,13 @@ def run_scenario(
         lower0 = motion(jnp.asarray(0.0))
 
         def mom(v):
-            return system_momentum(params, I3, v[:3], v[3:], lower0)
+            return system_momentum(params, R0, v[:3], v[3:], lower0)
 
         m0, lin = jax.linearize(mom, jnp.zeros(6))
         M = jax.vmap(lin)(jnp.eye(6)).T
         v = jnp.linalg.solve(M, -m0)
         vel0, omega0 = v[:3], v[3:]
-    state0 = CabinState(position, matrix_to_quat(I3), vel0, omega0)
+    state0 = CabinState(position, matrix_to_quat(R0), vel0, omega0)
     traj: Trajectory = simulate(params, static.s0, state0, static.force, motion, dt, n_steps,
                                   method)
     return scenario_outputs(params, traj, static, motion)

@@ -113,17 +113,20 @@ def static_equilibrium(
     *,
     rtol: float = 1e-13,
     max_steps: int = 50,
+    start: tuple[Float[Array, "6 3"], Float[Array, "6"]] | None = None,
 ) -> StaticSolution:
     """Unstretched lengths and forces of the six cables holding the cabin at rest at
     ``G t_C = pos`` with attitude ``G R_C = R`` (identity by default): the 24×24 system.
 
     Solved with ``optimistix.Newton`` (implicit differentiation through ``ImplicitAdjoint``);
-    non-convergence is reported in ``converged``, never raised inside a trace.
+    non-convergence is reported in ``converged``, never raised inside a trace. ``start``
+    (forces, unstretched lengths) replaces the straight-cable start, e.g. for continuation
+    from a nearby pose.
     """
     check_position(pos, "pos")
     pos = jnp.asarray(pos, jnp.float64)
     R = jnp.eye(3, dtype=jnp.float64) if R is None else jnp.asarray(R, jnp.float64)
-    force0, s00 = straight_cable_start(params, pos, R)
+    force0, s00 = straight_cable_start(params, pos, R) if start is None else start
     chord = jnp.linalg.norm(cable_deltas(params, pos, R), axis=-1)
     weight = (params.m_CB + params.stewart.m_P
               + 6.0 * (params.stewart.m_U + params.stewart.m_D)) * jnp.linalg.norm(params.gravity)

@@ -17,12 +17,15 @@ markers or dashed lines labelled "paper".
 - calibration (Wang et al. 2018): :func:`plot_pose_errors`, :func:`plot_table_comparison`,
   :func:`plot_convergence`, :func:`plot_singular_values`, :func:`plot_parameter_std`,
   :func:`plot_stroke_residuals`;
-- the FAST cable robot (Yin et al.): :func:`plot_fast_time_series`, :func:`plot_fast_table2`;
+- the FAST cable robot (Yin et al.): :func:`plot_fast_time_series`, :func:`plot_fast_table2`,
+  :func:`plot_fast_focal_map` (workspace and frequency maps), :func:`plot_fast_frequencies`;
 - model discrepancy: :func:`plot_residuals_vs_factor`, :func:`plot_residuals` (PNG files),
   :func:`plot_discrepancy_ranking`, :func:`plot_discrepancy_gap`.
 """
 
 from ._cable_robot import (
+    plot_fast_focal_map as plot_fast_focal_map,
+    plot_fast_frequencies as plot_fast_frequencies,
     plot_fast_table2 as plot_fast_table2,
     plot_fast_time_series as plot_fast_time_series,
 )

@@ -1,5 +1,6 @@
-"""Figures of the FAST cable-driven feed support: the scenario's time series (Figs. 6–9) and
-Table 2 beside the paper's.
+"""Figures of the FAST cable-driven feed support: the scenario's time series (Figs. 6–9),
+Table 2 beside the paper's, and (beyond the paper) maps over the focal surface and the cabin's
+natural frequencies.
 
 Yin J., Jiang P., Chen M., Yao R., *Dynamic modeling of a cable-driven parallel robot with a
 Stewart platform for use in FAST*: §6, eqs. 62–66, Figs. 6–9, Table 2.
@@ -18,7 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from ._common import COLORS, finish_figure
+from ._common import COLORS, finish, finish_figure
 
 
 def plot_fast_time_series(result: Any, *, title: str | None = None) -> Figure:
@@ -89,3 +90,69 @@ def plot_fast_table2(
         ax.grid(True, axis="y", which="both", alpha=0.3)
         ax.legend(fontsize=7)
     return finish_figure(fig, title)
+
+
+def plot_fast_focal_map(
+    positions: Any,
+    values: Any,
+    *,
+    feasible: Any | None = None,
+    label: str = "value",
+    title: str | None = None,
+    cmap: str = "viridis",
+) -> Figure:
+    """A quantity over FAST's focal surface, seen from above: one marker per cabin position at
+    its (x, y) in G (m), coloured by ``values`` (``label`` names it with its unit); positions
+    where ``feasible`` is false are drawn as grey crosses. Tower directions are marked on the
+    rim (Yin et al., eq. 1: towers at azimuths 0°, 60°, …, 300°).
+
+    ``positions``: ``(n, 3)`` metres; ``values``: ``(n,)``; ``feasible``: ``(n,)`` booleans.
+    """
+    p = np.asarray(positions, dtype=float)
+    v = np.asarray(values, dtype=float)
+    ok = np.ones(len(p), bool) if feasible is None else np.asarray(feasible, bool)
+    ok = ok & np.isfinite(v)
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
+    sc = ax.scatter(p[ok, 0], p[ok, 1], c=v[ok], cmap=cmap, s=28, label="feasible")
+    if (~ok).any():
+        ax.plot(p[~ok, 0], p[~ok, 1], "x", color="0.6", ms=5, label="infeasible")
+    fig.colorbar(sc, ax=ax, label=label)
+    r = 1.05 * np.max(np.linalg.norm(p[:, :2], axis=1)) if len(p) else 1.0
+    for k in range(6):
+        a = k * np.pi / 3
+        ax.annotate(f"T{k + 1}", (r * np.cos(a), r * np.sin(a)), ha="center", va="center", fontsize=8,
+                    color="0.3")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    return finish(fig, ax, title)
+
+
+def plot_fast_frequencies(
+    frequencies: Mapping[str, Sequence[float]],
+    *,
+    checks: Mapping[str, float] | None = None,
+    cable: Mapping[str, Sequence[float]] | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Natural frequencies (Hz, log axis) of the cabin per case (a position and attitude,
+    ``frequencies``: label → six values) as dots; ``checks``: label → the lowest frequency
+    from the FFT of the free response (open circles); ``cable``: label → the six cables' first
+    string frequencies (grey bars from their least to their greatest)."""
+    labels = list(frequencies)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(labels) + 2), 4.6))
+    x = np.arange(len(labels))
+    for i, lab in enumerate(labels):
+        f = np.asarray(frequencies[lab], dtype=float)
+        ax.plot(np.full(len(f), x[i]), f, "o", color=COLORS[0], label=None if i else "cabin modes")
+        if checks is not None and lab in checks:
+            ax.plot(x[i] + 0.15, checks[lab], "o", mfc="none", color="k", ms=9,
+                    label=None if i else "lowest, FFT of free response")
+        if cable is not None and lab in cable:
+            c = np.asarray(cable[lab], dtype=float)
+            ax.plot([x[i] - 0.15] * 2, [c.min(), c.max()], "-", color="0.5", lw=5, alpha=0.6,
+                    label=None if i else "cables' first string modes")
+    ax.set_xticks(x, labels, rotation=20, ha="right", fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylabel("frequency (Hz)")
+    return finish(fig, ax, title)
