@@ -110,6 +110,19 @@ def test_radians_for_degrees_fail_the_goodness_of_fit(measured):
     assert any("units" in w and "diagnose" in w for w in a.warnings)
 
 
+def test_lengths_in_metres_fail_the_goodness_of_fit(measured):
+    """A file in metres: the poses and readings shrink 1000× and no geometry explains them at the
+    stated noise (here the fit ends above it; in the 120-pose plan, 1000× below — both flagged)."""
+    data, _ = measured
+    nominal = sj.nominal_geometry()
+    scale = jnp.array([1e-3] * 3 + [1.0] * 3)
+    metres = sj.make_calibration_data(data.strokes * 1e-3, data.poses * scale)
+    res = sj.calibrate(sj.calibration_problem(metres, nominal), "lm")
+    a = assess_calibration(nominal.with_params(res.params), metres, 0.1, 0.1)
+    assert a.status == "poor_fit" and not 0.5 < a.rms_ratio < 2
+    assert any("units" in w or "metres" in w for w in a.warnings)
+
+
 def test_identical_rows_are_rank_deficient_and_get_no_std(tmp_path, measured, capsys):
     data, _ = measured
     ten = data.take(np.zeros(10, int))

@@ -32,7 +32,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.special import gammaincc
+from jax.scipy.special import gammainc, gammaincc
 from jaxtyping import Float
 
 from ..mechanism._abstract import AbstractMechanism
@@ -60,7 +60,9 @@ class CalibrationAssessment(NamedTuple):
     - ``duplicate_rows``: groups of rows (0-based) measured at the same pose.
     - ``nonfinite_rows``: rows whose residual is not finite.
     - ``chi2``, ``dof``, ``p_value``: the goodness-of-fit test; ``rms_ratio`` = ``sqrt(χ²/dof)``,
-      ≈ 1 when the stated σ and the model are right (≈ 1000 for lengths in metres).
+      ≈ 1 when the stated σ and the model are right; a fit is ``poor_fit`` when χ² is improbably
+      large *or* improbably small (p < :data:`FIT_P_VALUE` in either tail: a file in metres fits
+      1000× below the noise).
     - ``warnings``: one sentence per problem, each saying what to do.
     """
 
@@ -148,11 +150,14 @@ def assess_calibration(
             f"the residuals are {ratio:.3g}× what the stated noise (σ = {sigma_um} µm, {sigma_arcsec}″) explains "
             f"(χ² = {chi2:.4g} on {dof} degrees of freedom, p = {p:.2g}): wrong units (mm and degrees are "
             "expected), a wrong σ, or an effect the model lacks — run `stewart-jax diagnose` to name it")
-    elif dof > 0 and ratio < 0.3:
+    low = float(gammainc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")  # P(χ² ≤ observed)
+    if dof > 0 and low < FIT_P_VALUE:
         warnings.append(
-            f"the residuals are only {ratio:.3g}× what the stated noise explains: σ is overstated, and every "
-            "reported uncertainty with it")
-    status = "rank_deficient" if rep.rank < n else "poor_fit" if dof > 0 and p < FIT_P_VALUE else "ok"
+            f"the residuals are smaller than the stated noise allows (χ² = {chi2:.4g} on {dof} degrees of freedom, "
+            f"p = {low:.2g} of so small a value): σ is overstated — and every reported uncertainty with it — or "
+            "the file's lengths are in another unit (a file in metres shrinks every length 1000×)")
+    poor = dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE)
+    status = "rank_deficient" if rep.rank < n else "poor_fit" if poor else "ok"
     return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
                                  chi2, dof, p, ratio, warnings)
 
