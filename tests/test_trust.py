@@ -168,6 +168,9 @@ def test_bad_files_and_settings_are_named(measured, tmp_path, capsys):
     listed.write_text("[1, 2]")
     broken = tmp_path / "broken.json"
     broken.write_text('{"upper": [')
+    repeated = tmp_path / "repeated.csv"
+    text = open(csv_path).read().split("\n", 1)
+    repeated.write_text(text[0].replace("q2", "q1") + "\n" + text[1])
     latin = tmp_path / "latin.csv"
     latin.write_bytes("q1,q2\n\xb5m,1\n".encode("latin-1"))
     cases = [
@@ -175,6 +178,7 @@ def test_bad_files_and_settings_are_named(measured, tmp_path, capsys):
         (["calibrate", csv_path, "--geometry", str(listed)], "list.json"),
         (["calibrate", csv_path, "--geometry", str(broken)], "broken.json"),
         (["calibrate", str(latin)], "not UTF-8"),
+        (["calibrate", str(repeated)], "more than once"),
         (["calibrate", csv_path, "--sigma-um", "-1"], "--sigma-um"),
         (["calibrate", csv_path, "--max-steps", "0"], "--max-steps"),
         (["study", "--trials", "0"], "n_trials"),

@@ -38,7 +38,7 @@ import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import check_array, check_poses
+from .._checks import MAX_ANGLE_RAD, check_array, check_poses
 from ._abstract import AbstractMechanism, IKSolution
 from ._kinematics import FKSolution, ik_and_jacobian
 from ._pss import PSSMechanism
@@ -149,7 +149,8 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
         def branch(p):
             strokes, margins = _ik_rows(geometry, p, sincos)
             margin = jnp.stack(margins)
-            return IKSolution(jnp.stack(strokes), margin, jnp.all(margin >= 0.0, axis=0))
+            valid = jnp.all(jnp.isfinite(p), axis=0) & jnp.all(jnp.abs(p[3:]) <= MAX_ANGLE_RAD, axis=0)
+            return IKSolution(jnp.stack(strokes), margin, jnp.all(margin >= 0.0, axis=0) & valid)
 
         return branch
 
