@@ -18,11 +18,11 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._math import rotation_matrix
-from .._units import ARCSEC, COMPONENTS, UM
+from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._pss import Geometry, geometry_from_params
 from ._families import check_noise, register_model_family
-from ._registry import AbstractDiscrepancyModel
+from ._pose_noise import AbstractPoseNoiseModel
 
 MODEL_NAME = "6-pss"
 PSS_MODEL_NAME = MODEL_NAME
@@ -79,7 +79,7 @@ def pss_strokes(
     return c / (nw + root)
 
 
-class PSSModel(AbstractDiscrepancyModel):
+class PSSModel(AbstractPoseNoiseModel):
     """The 36-parameter 6-PSS model with pose-measurement noise.
 
     **Fields:**
@@ -90,10 +90,9 @@ class PSSModel(AbstractDiscrepancyModel):
     - ``sigma_rad``: σ of each measured angle (rad).
     - ``sigma_stroke_mm``: σ of each encoder reading (mm); 0 in the paper's setting.
 
-    NOTE: the residual of one pose, ``e = q' − IK(P')``, is driven by the pose noise ε through
-    ``e ≈ −J ε`` (``J = ∂q/∂P``), so its covariance is ``J Σ_P Jᵀ + σ_q² I`` — correlated across
-    the six legs and varying with the pose. The whitener is ``L⁻¹`` with ``L Lᵀ`` that
-    covariance, evaluated at the given parameters and the measured poses.
+    The whitener is ``L⁻¹`` with ``L Lᵀ = J Σ_P Jᵀ + σ_q² I`` (see
+    :class:`~stewart_jax.discrepancy._pose_noise.AbstractPoseNoiseModel`), evaluated at the given
+    parameters and the measured poses.
     """
 
     nominal: Float[Array, "36"]
@@ -115,9 +114,6 @@ class PSSModel(AbstractDiscrepancyModel):
     def base_scale(self) -> Float[Array, "36"]:
         return jnp.full(36, UM)
 
-    def observed(self, data: CalibrationData) -> Float[Array, "m 6"]:
-        return data.strokes
-
     def initial_state(self, base: Float[Array, "36"], data: CalibrationData, control: bool) -> PSSState:
         m = data.poses.shape[0]
         zeros = jnp.zeros((m, 6))
@@ -131,7 +127,13 @@ class PSSModel(AbstractDiscrepancyModel):
         return state.gain * s + state.offset
 
     def pose_jacobians(self, base: Float[Array, "36"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
-        """``∂q/∂P`` of the base model at each pose."""
+        """``∂q/∂P`` of the base model at each pose.
+
+        NOTE: the forward-mode derivative of :func:`pss_strokes`, not the analytic
+        :func:`~stewart_jax.kinematic_jacobian`: equal to rounding, but the whitened fits are
+        ill-conditioned enough (cond ~1e5) that switching moves reported statistics by up to
+        ~1e-6 relative, so the published numbers keep this Jacobian (see
+        ``tests/test_discrepancy.py`` for the agreement of the two)."""
         state = self.initial_state(base, CalibrationData(poses, poses), False)
 
         def one(p):
@@ -139,66 +141,10 @@ class PSSModel(AbstractDiscrepancyModel):
 
         return jax.vmap(jax.jacfwd(one))(poses)
 
-    def noise_covariance(self, base: Float[Array, "36"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        """``J Σ_P Jᵀ + σ_q² I`` per pose (mm²): the calibration package's
-        :func:`~stewart_jax.stroke_noise_covariance` plus the reading noise.
-
-        NOTE: ``J`` here is the forward-mode derivative of :func:`pss_strokes`, not the analytic
-        :func:`~stewart_jax.kinematic_jacobian` that ``stroke_noise_covariance`` uses: equal to
-        rounding, but the whitened fits are ill-conditioned enough (cond ~1e5) that switching
-        moves reported statistics by up to ~1e-6 relative, so the published numbers keep
-        this Jacobian (see ``tests/test_discrepancy.py`` for the agreement of the two)."""
-        var = jnp.concatenate([jnp.full(3, self.sigma_mm**2), jnp.full(3, self.sigma_rad**2)])
-        jac = self.pose_jacobians(base, data.poses)
-        cov = jnp.einsum("mik,k,mjk->mij", jac, var, jac)
-        return cov + self.sigma_stroke_mm**2 * jnp.eye(6)
-
-    def whitener(self, base: Float[Array, "36"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        chol = jnp.linalg.cholesky(self.noise_covariance(base, data))
-        return jax.vmap(lambda c: jax.scipy.linalg.solve_triangular(c, jnp.eye(6), lower=True))(chol)
-
-    def derived_errors(
-        self, base: Float[Array, "36"], data: CalibrationData, residuals: np.ndarray
-    ) -> dict[str, np.ndarray]:
-        """Pose errors ``δP = J⁻¹·e`` (µm, ″): to first order, how far the pose the model
-        predicts for the readings lies from the measured pose — the control error the
-        residual implies."""
-        jac = np.asarray(self.pose_jacobians(base, data.poses))
-        dp = np.linalg.solve(jac, np.asarray(residuals)[..., None])[..., 0]
-        # NOTE: × (1/UM) rather than error_in_report_units' ÷ UM: the published reports
-        # round the same way as before (the two differ in the last bit).
-        units = ("µm",) * 3 + ("″",) * 3
-        scale = np.array([1 / UM] * 3 + [1 / ARCSEC] * 3)
-        return {f"{n}_{u}": dp[:, k] * scale[k] for k, (n, u) in enumerate(zip(COMPONENTS, units, strict=True))}
-
-    def columns(self, data: CalibrationData) -> frozenset[str]:
-        return frozenset(
-            name for name in ("directions", "temperature", "time") if getattr(data, name) is not None
-        )
-
-    def n_rows(self, data: CalibrationData) -> int:
-        return data.n_poses
-
-    def take(self, data: CalibrationData, index) -> CalibrationData:
-        return data.take(index)
-
     def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
         """Per leg: its own reading and approach direction; per pose: the six pose components
         (µm and ″), temperature and time."""
-        m = data.n_poses
-        out: dict[str, np.ndarray] = {"stroke_um": np.asarray(data.strokes) / UM}
-        p = np.asarray(data.poses)
-        for i, c in enumerate(("x_um", "y_um", "z_um")):
-            out[c] = np.broadcast_to(p[:, i : i + 1] / UM, (m, 6))
-        for i, c in enumerate(("rx_arcsec", "ry_arcsec", "rz_arcsec")):
-            out[c] = np.broadcast_to(p[:, 3 + i : 4 + i] / ARCSEC, (m, 6))
-        if data.directions is not None:
-            out["direction"] = np.asarray(data.directions)
-        if data.temperature is not None:
-            out["temperature_C"] = np.broadcast_to(np.asarray(data.temperature)[:, None], (m, 6))
-        if data.time is not None:
-            out["time_s"] = np.broadcast_to(np.asarray(data.time)[:, None], (m, 6))
-        return out
+        return {"stroke_um": np.asarray(data.strokes) / UM, **self.pose_factors(data)}
 
 
 def pss_model(

@@ -25,11 +25,11 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._math import rotation_matrix
-from .._units import ARCSEC, COMPONENTS, UM
+from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._ups import UPSMechanism
 from ._families import check_noise, register_model_family
-from ._registry import AbstractDiscrepancyModel
+from ._pose_noise import AbstractPoseNoiseModel
 
 MODEL_NAME = "6-ups"
 UPS_MODEL_NAME = MODEL_NAME
@@ -103,7 +103,7 @@ def _pose_jacobians(mechanism: UPSMechanism, base: Float[Array, "42"], poses: Fl
 _gravity_axial_loads = jax.jit(gravity_axial_loads)
 
 
-class UPSModel(AbstractDiscrepancyModel):
+class UPSModel(AbstractPoseNoiseModel):
     """The 42-parameter 6-UPS model with pose-measurement noise.
 
     **Fields:**
@@ -141,9 +141,6 @@ class UPSModel(AbstractDiscrepancyModel):
     def base_scale(self) -> Float[Array, "42"]:
         return jnp.full(N_PARAMS_UPS, UM)
 
-    def observed(self, data: CalibrationData) -> Float[Array, "m 6"]:
-        return data.strokes
-
     def initial_state(self, base: Float[Array, "42"], data: CalibrationData, control: bool) -> UPSState:
         m = self.mechanism.with_params(base)
         zeros = jnp.zeros((data.poses.shape[0], 6))
@@ -156,60 +153,16 @@ class UPSModel(AbstractDiscrepancyModel):
         """``∂q/∂P`` of the base model at each pose (the mechanism's analytic Jacobian)."""
         return _pose_jacobians(self.mechanism, base, poses)
 
-    def noise_covariance(self, base: Float[Array, "42"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        """``J Σ_P Jᵀ + σ_q² I`` per pose (mm²)."""
-        var = jnp.concatenate([jnp.full(3, self.sigma_mm**2), jnp.full(3, self.sigma_rad**2)])
-        jac = self.pose_jacobians(base, data.poses)
-        return jnp.einsum("mik,k,mjk->mij", jac, var, jac) + self.sigma_stroke_mm**2 * jnp.eye(6)
-
-    def whitener(self, base: Float[Array, "42"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        chol = jnp.linalg.cholesky(self.noise_covariance(base, data))
-        return jax.vmap(lambda c: jax.scipy.linalg.solve_triangular(c, jnp.eye(6), lower=True))(chol)
-
-    def derived_errors(
-        self, base: Float[Array, "42"], data: CalibrationData, residuals: np.ndarray
-    ) -> dict[str, np.ndarray]:
-        """Pose errors ``δP = J⁻¹·e`` (µm, ″): to first order, how far the pose the model
-        predicts for the readings lies from the measured pose."""
-        jac = np.asarray(self.pose_jacobians(base, data.poses))
-        dp = np.linalg.solve(jac, np.asarray(residuals)[..., None])[..., 0]
-        units = ("µm",) * 3 + ("″",) * 3
-        scale = np.array([1 / UM] * 3 + [1 / ARCSEC] * 3)
-        return {f"{n}_{u}": dp[:, k] * scale[k] for k, (n, u) in enumerate(zip(COMPONENTS, units, strict=True))}
-
-    def columns(self, data: CalibrationData) -> frozenset[str]:
-        return frozenset(
-            name for name in ("directions", "temperature", "time") if getattr(data, name) is not None
-        )
-
-    def n_rows(self, data: CalibrationData) -> int:
-        return data.n_poses
-
-    def take(self, data: CalibrationData, index) -> CalibrationData:
-        return data.take(index)
-
     def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
         """Per strut: its own reading, the axial load a payload at A's origin puts on it (per
         unit weight, the factor of ``gravity_sag``) and its approach direction; per pose: the
         six pose components (µm and ″), temperature and time."""
-        m = data.n_poses
         mech = self.mechanism
-        out: dict[str, np.ndarray] = {
+        return {
             "stroke_um": np.asarray(data.strokes) / UM,
             "axial_load": np.asarray(_gravity_axial_loads(mech.platform, mech.base, mech.v0, data.poses)),
+            **self.pose_factors(data),
         }
-        p = np.asarray(data.poses)
-        for i, c in enumerate(("x_um", "y_um", "z_um")):
-            out[c] = np.broadcast_to(p[:, i : i + 1] / UM, (m, 6))
-        for i, c in enumerate(("rx_arcsec", "ry_arcsec", "rz_arcsec")):
-            out[c] = np.broadcast_to(p[:, 3 + i : 4 + i] / ARCSEC, (m, 6))
-        if data.directions is not None:
-            out["direction"] = np.asarray(data.directions)
-        if data.temperature is not None:
-            out["temperature_C"] = np.broadcast_to(np.asarray(data.temperature)[:, None], (m, 6))
-        if data.time is not None:
-            out["time_s"] = np.broadcast_to(np.asarray(data.time)[:, None], (m, 6))
-        return out
 
 
 def ups_model(
