@@ -24,8 +24,10 @@ Rows, per problem set and batch size (time per calibration, compilation timed ap
   ``lmder``). 6-PSS only.
 
 A slow row is run on fewer problems than the batch (its time per calibration does not depend on
-the batch: one at a time) or skipped where it would take longer than ``--row-budget`` seconds
-(estimated from the smaller batch); the table says which. Every JAX timing blocks on the result.
+the batch: one at a time; optimistix one at a time is run at the smallest and largest batch only)
+or skipped where it would take longer than ``--row-budget`` seconds (estimated from the smaller
+batch); the table says which. ``--quick`` runs the vmapped baselines at batch 1 only. Every JAX
+timing blocks on the result.
 
 ``--conditioning``: the NOTE of ``stewart_jax/optimise/_batched_lm.py`` — on one 8-pose problem,
 the rank of J, and for the damping values the solver visits the condition number of
@@ -261,7 +263,7 @@ def problem_sets(n: int):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="batches of 1, 10, 50")
-    ap.add_argument("--row-budget", type=float, default=None, help="seconds a slow row may take (default 30; 5 quick)")
+    ap.add_argument("--row-budget", type=float, default=None, help="seconds a slow row may take (default 20; 2 quick)")
     ap.add_argument("--conditioning", action="store_true", help="only the Cholesky-vs-QR measurement")
     args = ap.parse_args(argv)
     if args.conditioning:
@@ -269,7 +271,7 @@ def main(argv=None) -> int:
         print(c)
         return 0
     batches = (1, 10, 50) if args.quick else (1, 100, 1000)
-    budget = args.row_budget or (5.0 if args.quick else 30.0)
+    budget = args.row_budget or (2.0 if args.quick else 20.0)
     repeats = 2 if args.quick else 3
     sets = problem_sets(batches[-1])
     peak, peak_how = peak_gflops()
@@ -290,7 +292,9 @@ def main(argv=None) -> int:
         pss = pset.startswith("6-PSS")
         per_cal = {}  # method -> latest ms per calibration, for the budget estimate
         for batch in batches:
-            for method in ("lm-batched", "lm", "lm-jaxopt"):
+            # --quick: the new solver against the SciPy peer; the slow baselines at batch 1 only
+            vmapped = ("lm-batched", "lm", "lm-jaxopt") if (batch == 1 or not args.quick) else ("lm-batched",)
+            for method in vmapped:
                 label = {"lm-batched": "lm-batched", "lm": "lm (optimistix), vmapped",
                          "lm-jaxopt": "lm-jaxopt, vmapped"}[method]
                 est = per_cal.get(method, 0.0) * batch / 1e3
@@ -304,7 +308,8 @@ def main(argv=None) -> int:
             # min(batch, what fits the budget) problems
             for label, fn in (("lm (optimistix), one at a time (jit)", optimistix_one_at_a_time),
                               ("SciPy lm, NumPy residual + analytic Jacobian", scipy_rows)):
-                if label.startswith("SciPy") and not pss:
+                if (label.startswith("SciPy") and not pss) or (label.startswith("lm") and batch not in
+                                                               (batches[0], batches[-1])):
                     continue
                 n = batch if label not in per_cal else int(min(batch, max(1, budget * 1e3 / per_cal[label])))
                 r = fn(problems, n)

@@ -143,7 +143,9 @@ class BatchedLevenbergMarquardt(eqx.Module):
       (``D = diag JᵀJ`` at the current point, Marquardt 1963).
     - ``working_set``: in :func:`least_squares_batch`, how many problems are iterated together;
       a finished one is replaced by the next (see its NOTE). ``None``: the whole batch, until
-      its slowest problem is done (``vmap`` of a ``while_loop``).
+      its slowest problem is done (``vmap`` of a ``while_loop``). 64: on 1000 8-pose
+      calibrations (2 cores) 0.21 ms per calibration, against 0.24 (32), 0.43 (128) and 0.90
+      (the whole batch).
     """
 
     max_steps: int = 100
@@ -153,7 +155,7 @@ class BatchedLevenbergMarquardt(eqx.Module):
     initial_damping: float = 1e-3
     min_damping: float = 1e-12
     scaling: Literal["more", "marquardt"] = "more"
-    working_set: int | None = 128
+    working_set: int | None = 64
 
     def __check_init__(self):
         if not (int(self.max_steps) == self.max_steps and self.max_steps >= 1):
