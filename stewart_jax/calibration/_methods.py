@@ -11,6 +11,14 @@ CLI's ``--method`` choices, the study's labels, the tests and the Makefile's dem
 Adding an optimiser is one module in :mod:`stewart_jax.optimise` and one
 :func:`register_method` call here.
 
+``lm-batched`` (:class:`~stewart_jax.optimise.BatchedLevenbergMarquardt`) is the fast path of
+``calibrate_batch``: instead of vmapping one solve per trial it runs
+:func:`~stewart_jax.optimise.least_squares_batch` on the whole batch, with one least-squares
+block per leg where the family declares its legs' parameters disjoint
+(``mechanism.leg_parameters``) and the family's closed-form ``parameter_jacobian`` where it has
+one. Like ``lm`` it is unbounded: it starts at the nominal parameters and reports its end point
+in Ω or not (``cost`` is +inf, status ``nonfinite``, where a measured pose is unreachable there).
+
 Budgets: ``max_evaluations`` (cost evaluations) for the metaheuristics and Nelder–Mead, so
 that methods compare at the same number of evaluations; ``max_steps`` (LM iterations, each one
 residual vector and one Jacobian) for the LM methods. The hybrid takes both.
