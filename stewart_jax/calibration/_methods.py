@@ -11,6 +11,14 @@ CLI's ``--method`` choices, the study's labels, the tests and the Makefile's dem
 Adding an optimiser is one module in :mod:`stewart_jax.optimise` and one
 :func:`register_method` call here.
 
+``lm-batched`` (:class:`~stewart_jax.optimise.BatchedLevenbergMarquardt`) is the fast path of
+``calibrate_batch``: instead of vmapping one solve per trial it runs
+:func:`~stewart_jax.optimise.least_squares_batch` on the whole batch, with one least-squares
+block per leg where the family declares its legs' parameters disjoint
+(``mechanism.leg_parameters``) and the family's closed-form ``parameter_jacobian`` where it has
+one. Like ``lm`` it is unbounded: it starts at the nominal parameters and reports its end point
+in Ω or not (``cost`` is +inf, status ``nonfinite``, where a measured pose is unreachable there).
+
 Budgets: ``max_evaluations`` (cost evaluations) for the metaheuristics and Nelder–Mead, so
 that methods compare at the same number of evaluations; ``max_steps`` (LM iterations, each one
 residual vector and one Jacobian) for the LM methods. The hybrid takes both.
@@ -24,8 +32,11 @@ from typing import Any, Literal
 
 import equinox as eqx
 import jax
+import numpy as np
 from jaxtyping import PRNGKeyArray
 
+from ..mechanism._abstract import AbstractMechanism
+from ..optimise._batched_lm import BatchedLevenbergMarquardt, Blocks, least_squares_batch
 from ..optimise._cuckoo import CuckooSearch
 from ..optimise._driver import minimise
 from ..optimise._hybrid import VSASMCSThenLM
@@ -83,6 +94,8 @@ register_method("lm", "LM (optimistix)", LevenbergMarquardt, "least_squares",
                 "Levenberg 1944, Marquardt 1963; optimistix")
 register_method("lm-jaxopt", "LM (jaxopt)", JaxoptLevenbergMarquardt, "least_squares",
                 "Levenberg–Marquardt as implemented by jaxopt (cross-check)")
+register_method("lm-batched", "LM (batched)", BatchedLevenbergMarquardt, "least_squares",
+                "Levenberg 1944, Marquardt 1963, Moré 1978, Nielsen 1999; one small problem per leg, batched")
 register_method("cs", "CS", CuckooSearch, "box", "Yang & Deb 2009")
 register_method("smcs", "SMCS", SMCS, "box", "Wang et al. 2018, §2.1")
 register_method("vsa-smcs", "VSA-SMCS", VSASMCS, "box", "Wang et al. 2018, §2.2–2.3")
@@ -148,7 +161,29 @@ def _cost(u, problem):
     return problem.cost(u)
 
 
+def _jacobian(mechanism: AbstractMechanism):
+    """The residual's Jacobian, ``−∂q/∂u``, where the family has a closed-form
+    ``parameter_jacobian``; ``None`` (autodiff) where it has only the autodiff default."""
+    if type(mechanism).parameter_jacobian is AbstractMechanism.parameter_jacobian:
+        return None
+    return lambda u, problem: -problem.mechanism.with_params(u).parameter_jacobian(problem.data.poses)
+
+
+def _leg_blocks(problem: CalibrationProblem) -> Blocks | None:
+    """One least-squares block per leg (rows ``6j + i`` of leg ``i`` at pose ``j``, the leg's
+    parameters) where the family declares its legs' parameters disjoint."""
+    legs = problem.mechanism.leg_parameters
+    if legs is None:
+        return None
+    m = problem.data.poses.shape[-2]
+    rows = np.arange(m)[None, :] * len(legs) + np.arange(len(legs))[:, None]
+    return Blocks(rows, np.asarray(legs))
+
+
 def _run(kind: Kind, solver, problem: CalibrationProblem, key, max_evaluations: int) -> OptimiseResult:
+    if isinstance(solver, BatchedLevenbergMarquardt):
+        return solver.run(_residuals, problem.initial, problem, _cost, _jacobian(problem.mechanism),
+                          _leg_blocks(problem))
     if kind == "least_squares":
         return solver.run(_residuals, problem.initial, problem, _cost)
     if kind == "hybrid":
@@ -164,6 +199,9 @@ def _run_one(kind, solver, problem, key, max_evaluations):
 
 @eqx.filter_jit
 def _run_batch(kind, solver, problems, keys, max_evaluations):
+    if isinstance(solver, BatchedLevenbergMarquardt):  # the fast path: its own batched loop
+        return least_squares_batch(_residuals, solver, problems.initial, args=problems,
+                                   jac=_jacobian(problems.mechanism), cost=_cost, blocks=_leg_blocks(problems))
     return jax.vmap(lambda p, k: _run(kind, solver, p, k, max_evaluations))(problems, keys)
 
 

@@ -85,6 +85,13 @@ class AbstractMechanism(eqx.Module):
         return int(self.params.shape[-1])
 
     @property
+    def leg_parameters(self) -> tuple[tuple[int, ...], ...] | None:
+        """Per leg, the indices in :attr:`params` that its reading depends on — disjoint sets, so
+        that a calibration splits into one small least-squares problem per leg — or ``None``
+        where the readings share parameters (or it is not known)."""
+        return None
+
+    @property
     def travel_half_widths(self) -> np.ndarray | None:
         """The mechanism's travel as pose half-widths ``[x, y, z, φ, θ, ψ]`` (mm, rad), or
         ``None`` where it is not known. Simulation and pose plans stay inside it."""

@@ -163,6 +163,11 @@ class PSSMechanism(AbstractMechanism):
                             param_set=param_set)
 
     @property
+    def leg_parameters(self) -> tuple[tuple[int, ...], ...]:
+        """Leg i's stroke depends on ``Ac_i`` and ``Bc_i`` only (eq. 4; ``L_i`` from the zero pose)."""
+        return tuple((3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i) for i in range(N_LEGS))
+
+    @property
     def travel_half_widths(self) -> np.ndarray:
         """Wang et al. (2018) §4: ±1 mm and ±1° on every pose component."""
         return np.array([1.0, 1.0, 1.0] + [float(np.deg2rad(1.0))] * 3)

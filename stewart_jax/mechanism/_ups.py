@@ -144,6 +144,11 @@ class UPSMechanism(AbstractMechanism):
         )
 
     @property
+    def leg_parameters(self) -> tuple[tuple[int, ...], ...]:
+        """Strut i's reading depends on ``platform_i``, ``base_i`` and ``lengths0_i`` only."""
+        return tuple((3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i, 36 + i) for i in range(N_LEGS))
+
+    @property
     def travel_half_widths(self) -> np.ndarray | None:
         """The travel as pose half-widths ``[x, y, z, tilt, tilt, rz]`` (mm, rad), or ``None``."""
         if self.travel is None:

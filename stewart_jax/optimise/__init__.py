@@ -2,12 +2,14 @@
 
 Nothing here knows about mechanisms or calibration: an objective is ``fn(y, args) -> scalar``
 (population and simplex methods, :func:`minimise`) or a residual ``fn(y, args) -> vector``
-(Levenberg–Marquardt, :func:`least_squares`); the optimistix argument order throughout.
+(Levenberg–Marquardt, :func:`least_squares`, and for a batch of problems
+:func:`least_squares_batch`); the optimistix argument order throughout.
 
 One algorithm per module, each opening with its citation: ``_levy`` (Mantegna's Lévy steps),
 ``_cuckoo`` (cuckoo search, Yang & Deb 2009), ``_simplex`` (Nelder–Mead on nests; bounded
 Nelder–Mead), ``_smcs`` and ``_vsa_smcs`` (Wang et al. 2018, §2), ``_levenberg_marquardt``
-(optimistix baseline), ``_jaxopt_lm`` (jaxopt cross-check), ``_hybrid`` (VSA-SMCS then LM);
+(optimistix baseline), ``_jaxopt_lm`` (jaxopt cross-check), ``_batched_lm`` (the batched fast path: Nielsen's damping,
+Cholesky per separable block, a refilled working set), ``_hybrid`` (VSA-SMCS then LM);
 ``_driver`` runs every iterative one in one ``lax.scan``.
 
 A new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`) with its
@@ -17,6 +19,12 @@ hyper-parameters as fields checked in ``__check_init__``; implement ``step`` wit
 :class:`RESULTS` items: ``result.status == RESULTS.successful``.
 """
 
+from ._batched_lm import (
+    BatchedLevenbergMarquardt as BatchedLevenbergMarquardt,
+    BatchedLMState as BatchedLMState,
+    Blocks as Blocks,
+    least_squares_batch as least_squares_batch,
+)
 from ._cuckoo import CuckooSearch as CuckooSearch
 from ._driver import (
     AbstractPopulationSolver as AbstractPopulationSolver,
