@@ -116,6 +116,10 @@ def test_parameter_jacobian_matches_central_differences():
     strokes = jax.jit(jax.vmap(lambda p: m.with_params(p).solve_inverse_kinematics(poses).strokes.reshape(-1)))
     fd = (np.asarray(strokes(steps[0])) - np.asarray(strokes(steps[1]))).T / (2 * h)
     assert jac.shape == (60, 54)
+    # each leg's readings depend on its own parameters only, as leg_parameters declares
+    for i, cols in enumerate(m.leg_parameters):
+        others = np.setdiff1d(np.arange(54), cols)
+        assert np.all(jac[i::6][:, others] == 0) and np.all(np.any(jac[i::6][:, list(cols)] != 0, axis=0))
     np.testing.assert_allclose(jac, fd, rtol=1e-6, atol=1e-7)
     # a rod length acts one-for-one on its own leg's reading, against the slider's direction of
     # the rod: ∂q_i/∂L_i = −L_i / (n·(w − q·n))

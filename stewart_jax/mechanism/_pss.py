@@ -164,8 +164,11 @@ class PSSMechanism(AbstractMechanism):
 
     @property
     def leg_parameters(self) -> tuple[tuple[int, ...], ...]:
-        """Leg i's stroke depends on ``Ac_i`` and ``Bc_i`` only (eq. 4; ``L_i`` from the zero pose)."""
-        return tuple((3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i) for i in range(N_LEGS))
+        """Leg i's stroke depends on ``Ac_i`` and ``Bc_i`` only (eq. 4; ``L_i`` from the zero pose),
+        and on its own rod length and axis tilts in the larger parameter sets."""
+        extra = {"36": lambda i: (), "42": lambda i: (36 + i,), "54": lambda i: (36 + i, 42 + i, 48 + i)}
+        return tuple((3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i) + extra[self.param_set](i)
+                     for i in range(N_LEGS))
 
     @property
     def travel_half_widths(self) -> np.ndarray:
