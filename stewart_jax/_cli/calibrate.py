@@ -71,10 +71,9 @@ def run(args: argparse.Namespace) -> int:
         assessment = assess_calibration(calibrated, data, args.sigma_um, args.sigma_arcsec)
         out.update(_assessment_keys(assessment))
         if assessment.status != "nonfinite":
-            from ..calibration._identifiability import identifiability_report, predicted_control_error_std
+            from ..calibration._identifiability import predicted_control_error_std
 
-            rep = identifiability_report(calibrated, data.poses, args.sigma_um, args.sigma_arcsec)
-            std = predicted_control_error_std(calibrated, data.poses, rep.param_cov)
+            std = predicted_control_error_std(calibrated, data.poses, assessment.param_cov)
             out["predicted_control_error_std_max"] = dict(
                 zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
                     np.max(std, axis=0).tolist(), strict=True))

@@ -64,6 +64,8 @@ class CalibrationAssessment(NamedTuple):
       large *or* improbably small (p < :data:`FIT_P_VALUE` in either tail: a file in metres fits
       1000× below the noise).
     - ``warnings``: one sentence per problem, each saying what to do.
+    - ``param_cov``: ``Float[np.ndarray, "n n"]``, the predicted parameter covariance of the
+      identifiability report (NaN where the residuals are not finite).
     """
 
     status: str
@@ -79,6 +81,7 @@ class CalibrationAssessment(NamedTuple):
     p_value: float
     rms_ratio: float
     warnings: list[str]
+    param_cov: np.ndarray
 
 
 def duplicate_rows(poses: Float[np.ndarray, "m 6"]) -> list[list[int]]:
@@ -127,7 +130,8 @@ def assess_calibration(
             "those rows")
         nan = np.full(n, np.nan)
         return CalibrationAssessment("nonfinite", 0, n, float("inf"), np.zeros(n, bool), nan, dups, bad,
-                                     float("nan"), 6 * m - n, float("nan"), float("nan"), warnings)
+                                     float("nan"), 6 * m - n, float("nan"), float("nan"), warnings,
+                                     np.full((n, n), np.nan))
     rep = identifiability_report(calibrated, jnp.asarray(poses), sigma_um, sigma_arcsec, rtol=RANK_RTOL)
     basis = np.asarray(rep.unidentifiable)  # (n − rank, n), the null space
     blind = np.sum(basis**2, axis=0) if basis.size else np.zeros(n)
@@ -159,7 +163,7 @@ def assess_calibration(
     poor = dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE)
     status = "rank_deficient" if rep.rank < n else "poor_fit" if poor else "ok"
     return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
-                                 chi2, dof, p, ratio, warnings)
+                                 chi2, dof, p, ratio, warnings, np.asarray(rep.param_cov))
 
 
 def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> Float[np.ndarray, "m 6"]:
