@@ -65,6 +65,16 @@ def test_pose_jacobian_matches_autodiff_default(name):
 
 
 @pytest.mark.parametrize("name", PRESETS)
+def test_parameter_jacobian_matches_autodiff_default(name):
+    m = preset(name)
+    poses = jnp.asarray(travel(4, 7, m))
+    jac = m.parameter_jacobian(poses)
+    ad = AbstractMechanism.parameter_jacobian(m, poses)  # forward-mode AD through with_params
+    # entries are O(1e-2..1); the closed forms are cancellation-free, so rounding stays ~1e-16
+    np.testing.assert_allclose(jac, ad, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", PRESETS)
 def test_parameter_jacobian_matches_central_differences(name):
     m = preset(name)
     poses = jnp.asarray(travel(2, 3, m))

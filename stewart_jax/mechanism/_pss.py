@@ -255,6 +255,36 @@ class PSSMechanism(AbstractMechanism):
         )
         return parts.strokes, parts.margin, jac
 
+    def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
+        """``∂q/∂u`` (row ``6j + i`` is leg ``i`` at pose ``j``); closed form for the paper's
+        36 parameters, forward-mode AD for the 42 and 54 sets.
+
+        With ``e = Ac + v0 − Bc`` (the zero-pose rod, whose length ``|e|`` the rod keeps), ``ℓ``
+        and ``h`` as in :meth:`ik_and_jacobian` and ``g = (ℓx/h, ℓy/h, 1)``, eq. 4 reads
+        ``q = ℓz − sqrt(|e|² − ℓx² − ℓy²)``, so ``∂q/∂Bc = −(g − e/h)`` and
+        ``∂q/∂Ac = gᵀ·T − eᵀ/h = gᵀ·(T − I) + (g − e/h)ᵀ``.
+
+        NOTE: ``g − e/h`` vanishes at the zero pose (``q ≡ 0`` there for every geometry) and is
+        formed without cancellation: ``(δx/h, δy/h, −(γx + γy)/(h·(h + e_z)))`` with ``δ = ℓ − e``
+        and ``γ = δ(2e + δ)`` the growth terms of the IK, since ``h² − e_z² = −γx − γy``.
+        """
+        if not self.is_paper_model:
+            return super().parameter_jacobian(poses)
+        parts = _ik_parts(self, poses)
+        ell, h, growth = parts.ell, parts.root, parts.growth  # (m, 6, 3), (m, 6), (m, 6, 3)
+        e = self.upper + self.v0 - self.lower
+        delta = ell - e
+        g = jnp.stack([ell[..., 0] / h, ell[..., 1] / h, jnp.ones_like(h)], axis=-1)
+        g_minus = jnp.stack([delta[..., 0] / h, delta[..., 1] / h,
+                             -(growth[..., 0] + growth[..., 1]) / (h * (h + e[:, 2]))], axis=-1)
+        rot_minus_eye = parts.rot - jnp.eye(3)  # (m, 3, 3)
+        d_upper = jnp.einsum("mij,mjk->mik", g, rot_minus_eye) + g_minus  # (m, 6, 3)
+        m = poses.shape[0]
+        eye = jnp.eye(N_LEGS)[None, :, :, None]  # block-diagonal in the leg
+        ju = (eye * d_upper[:, :, None, :]).reshape(m * N_LEGS, 18)
+        jl = (eye * -g_minus[:, :, None, :]).reshape(m * N_LEGS, 18)
+        return jnp.concatenate([ju, jl], axis=-1)
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PSSMechanism:
         return geometry_from_dict(d)
