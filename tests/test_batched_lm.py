@@ -266,3 +266,15 @@ def test_calibrate_one_problem_equals_its_batch_entry(pss_batch):
     # compiled for one problem or for a batch, XLA may order sums differently: rounding only
     np.testing.assert_allclose(r.cost, fast.cost[1], rtol=COST_RTOL)
     same_fit(one, r.params, fast.params[1], float(fast.cost[1]))
+
+
+def test_hybrid_batch_polishes_every_best_nest_to_the_lm_minimum(pss_batch):
+    # The hybrid's batched path (vmapped VSA-SMCS, then one batched LM from the best nests)
+    # ends where LM from the nominal parameters ends: the 8-pose problem has one minimum.
+    problems, fast, _ = pss_batch
+    keys = jax.random.split(jax.random.key(4), 3)
+    r = calibrate_batch(problems, "vsa-smcs+lm", keys, max_evaluations=500)
+    assert list(status_name(r.status)) == ["success"] * 3
+    np.testing.assert_allclose(r.cost, fast.cost, rtol=COST_RTOL)
+    assert np.all(np.asarray(r.history_cost)[:, -1] == np.asarray(r.cost))
+    assert np.all(np.asarray(r.n_evaluations) > 500 - 110)  # VSA-SMCS's evaluations are counted

@@ -86,7 +86,7 @@ def register_method(name: str, label: str, factory: Callable[..., eqx.Module], k
 
 
 def _hybrid(max_steps: int | None = None, **options: Any) -> VSASMCSThenLM:
-    local = LevenbergMarquardt() if max_steps is None else LevenbergMarquardt(max_steps=max_steps)
+    local = BatchedLevenbergMarquardt() if max_steps is None else BatchedLevenbergMarquardt(max_steps=max_steps)
     return VSASMCSThenLM(VSASMCS(**options), local)
 
 
@@ -99,7 +99,7 @@ register_method("lm-batched", "LM (batched)", BatchedLevenbergMarquardt, "least_
 register_method("cs", "CS", CuckooSearch, "box", "Yang & Deb 2009")
 register_method("smcs", "SMCS", SMCS, "box", "Wang et al. 2018, §2.1")
 register_method("vsa-smcs", "VSA-SMCS", VSASMCS, "box", "Wang et al. 2018, §2.2–2.3")
-register_method("vsa-smcs+lm", "VSA-SMCS+LM", _hybrid, "hybrid", "VSA-SMCS, then LM from its best nest")
+register_method("vsa-smcs+lm", "VSA-SMCS+LM", _hybrid, "hybrid", "VSA-SMCS, then the batched LM from its best nest")
 register_method("nelder-mead", "Nelder-Mead (bounded)", NelderMead, "box",
                 "Nelder & Mead 1965; Gao & Han 2012 coefficients; bounded by projection")
 
@@ -187,7 +187,8 @@ def _run(kind: Kind, solver, problem: CalibrationProblem, key, max_evaluations: 
     if kind == "least_squares":
         return solver.run(_residuals, problem.initial, problem, _cost)
     if kind == "hybrid":
-        return solver.run(_residuals, problem.lower, problem.upper, key, max_evaluations, problem, _cost)
+        return solver.run(_residuals, problem.lower, problem.upper, key, max_evaluations, problem, _cost,
+                          _jacobian(problem.mechanism), _leg_blocks(problem))
     return minimise(_cost, solver, problem.lower, problem.upper, key, max_evaluations=max_evaluations,
                     y0=problem.initial, args=problem)
 
@@ -202,6 +203,11 @@ def _run_batch(kind, solver, problems, keys, max_evaluations):
     if isinstance(solver, BatchedLevenbergMarquardt):  # the fast path: its own batched loop
         return least_squares_batch(_residuals, solver, problems.initial, args=problems,
                                    jac=_jacobian(problems.mechanism), cost=_cost, blocks=_leg_blocks(problems))
+    if isinstance(solver, VSASMCSThenLM) and isinstance(solver.local_phase, BatchedLevenbergMarquardt):
+        g = jax.vmap(lambda p, k: solver.explore(_cost, p.lower, p.upper, k, max_evaluations, p))(problems, keys)
+        lm = least_squares_batch(_residuals, solver.local_phase, g.params, args=problems,
+                                 jac=_jacobian(problems.mechanism), cost=_cost, blocks=_leg_blocks(problems))
+        return jax.vmap(solver.combine)(g, lm)
     return jax.vmap(lambda p, k: _run(kind, solver, p, k, max_evaluations))(problems, keys)
 
 

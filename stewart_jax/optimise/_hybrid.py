@@ -2,8 +2,10 @@
 
 Global phase: Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope
 secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §2.2–2.3,
-:mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963) via
-optimistix, :mod:`.levenberg_marquardt`, started from the best nest. The usual
+:mod:`.vsa_smcs`. Local phase: Levenberg K. (1944), Marquardt D. W. (1963), started from the best nest: the
+batched LM of :mod:`._batched_lm` by default (so that a batch of hybrid calibrations polishes all
+its best nests in one batched solve, finished trials dropping out), or optimistix's
+(:mod:`._levenberg_marquardt`). The usual
 memetic pattern (a population method to find the basin, a Newton-type method for the last
 digits) — e.g. Moscato P., Cotta C., "A gentle introduction to memetic algorithms",
 Handbook of Metaheuristics (2003).
@@ -15,6 +17,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import PRNGKeyArray
 
+from ._batched_lm import BatchedLevenbergMarquardt
 from ._driver import minimise
 from ._levenberg_marquardt import LevenbergMarquardt, sum_of_squares
 from ._result import RESULTS, OptimiseResult
@@ -23,24 +26,27 @@ from ._vsa_smcs import VSASMCS
 
 class VSASMCSThenLM(eqx.Module):
     """VSA-SMCS (``global_phase``) within ``max_evaluations`` cost evaluations, then LM
-    (``local_phase``) from its best nest.
+    (``local_phase``: :class:`BatchedLevenbergMarquardt` or optimistix's
+    :class:`LevenbergMarquardt`) from its best nest.
 
     The result's ``n_evaluations`` adds LM's residual-vector evaluations (each with a
     Jacobian) to VSA-SMCS's cost evaluations; the history is VSA-SMCS's, with LM's final
     cost appended. LM's result is kept only where it improves on the best nest (LM is
     unbounded; it is not clipped to Ω).
+
+    A batch runs :meth:`explore` per problem (vmapped), one batched local solve from the best
+    nests (:func:`~stewart_jax.optimise.least_squares_batch`), and :meth:`combine` per problem.
     """
 
     global_phase: VSASMCS = VSASMCS()
-    local_phase: LevenbergMarquardt = LevenbergMarquardt()
+    local_phase: BatchedLevenbergMarquardt | LevenbergMarquardt = BatchedLevenbergMarquardt()
 
-    def run(self, fn, lower, upper, key: PRNGKeyArray, max_evaluations: int, args=None, cost=None
-            ) -> OptimiseResult:
-        """Residuals ``fn(y, args)`` over the box ``[lower, upper]`` (arrays); ``cost(y, args)``
-        is the global phase's objective and the value reported (default ``Σ fn²``)."""
-        cost_fn = sum_of_squares(fn) if cost is None else cost
-        g = minimise(cost_fn, self.global_phase, lower, upper, key, max_evaluations=max_evaluations, args=args)
-        lm = self.local_phase.run(fn, g.params, args, cost_fn)
+    def explore(self, cost_fn, lower, upper, key: PRNGKeyArray, max_evaluations: int, args=None) -> OptimiseResult:
+        """The global phase: VSA-SMCS on ``cost_fn(y, args)`` over ``[lower, upper]``."""
+        return minimise(cost_fn, self.global_phase, lower, upper, key, max_evaluations=max_evaluations, args=args)
+
+    def combine(self, g: OptimiseResult, lm: OptimiseResult) -> OptimiseResult:
+        """One problem's result from its global phase ``g`` and its local phase ``lm``."""
         better = jnp.isfinite(lm.cost) & (lm.cost <= g.cost)
         params = jnp.where(better, lm.params, g.params)
         cost = jnp.where(better, lm.cost, g.cost)
@@ -55,3 +61,16 @@ class VSASMCSThenLM(eqx.Module):
             history_cost=jnp.concatenate([g.history_cost, cost[None]]),
             history_evaluations=jnp.concatenate([g.history_evaluations, n[None]]),
         )
+
+    def run(self, fn, lower, upper, key: PRNGKeyArray, max_evaluations: int, args=None, cost=None, jac=None,
+            blocks=None) -> OptimiseResult:
+        """Residuals ``fn(y, args)`` over the box ``[lower, upper]`` (arrays); ``cost(y, args)``
+        is the global phase's objective and the value reported (default ``Σ fn²``); ``jac`` and
+        ``blocks`` go to a :class:`BatchedLevenbergMarquardt` local phase (see its ``run``)."""
+        cost_fn = sum_of_squares(fn) if cost is None else cost
+        g = self.explore(cost_fn, lower, upper, key, max_evaluations, args)
+        if isinstance(self.local_phase, BatchedLevenbergMarquardt):
+            lm = self.local_phase.run(fn, g.params, args, cost_fn, jac, blocks)
+        else:
+            lm = self.local_phase.run(fn, g.params, args, cost_fn)
+        return self.combine(g, lm)
