@@ -68,7 +68,7 @@ def covariance_check(name: str, trials: int) -> dict:
     t0 = time.perf_counter()
     sims = jax.vmap(lambda k: sj.simulate_measurements(k, nominal, actual, targets))(keys)
     problems = jax.vmap(lambda d: sj.calibration_problem(d, nominal))(sims.data)
-    res = jax.block_until_ready(calibrate_batch(problems, "lm", keys))
+    res = jax.block_until_ready(calibrate_batch(problems, "lm-batched", keys))
     ok = np.asarray(res.status == sj.optimise.RESULTS.successful)
     errs = jax.jit(jax.vmap(lambda p: sj.control_error(nominal.with_params(p), actual, val).errors))(
         res.params[ok])

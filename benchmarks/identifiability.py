@@ -65,7 +65,7 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
     problems, sim_ok = _simulate(noise_keys, jnp.asarray(targets), nominal, actual, sigma_um, sigma_arcsec)
     if not bool(sim_ok):
         raise RuntimeError("forward kinematics of the true mechanism failed at a calibration pose")
-    res = sj.calibration.calibrate_batch(problems, "lm", noise_keys)
+    res = sj.calibration.calibrate_batch(problems, "lm-batched", noise_keys)
     errors, fk_ok = _validation_errors(res.params, nominal, actual, validation)
     errors = sj.error_in_report_units(errors)
     status, counts = np.unique(sj.optimise.status_code(res.status), return_counts=True)

@@ -179,7 +179,8 @@ def _heldout(args, data, nominal, fraction, options) -> dict:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("calibrate", help="calibrate a mechanism's parameters from a measured CSV")
     p.add_argument("file", help="measured data CSV (q1..q6, x, y, z, rx, ry, rz)")
-    p.add_argument("--method", choices=tuple(METHOD_REGISTRY), default="lm")
+    p.add_argument("--method", choices=tuple(METHOD_REGISTRY), default="lm-batched",
+                   help="calibration method (default: lm-batched, the fast LM; lm: optimistix's, the reference)")
     p.add_argument("--seed", type=int, default=0, help="PRNG seed of the stochastic methods")
     noise_args(p)
     p.add_argument("--json", help="write the result as JSON")

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("study", help="the Table 2 simulation study of Wang et al. (2018) over many seeds")
-    p.add_argument("--methods", default="lm", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
+    p.add_argument("--methods", default="lm-batched", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
     p.add_argument("--trials", type=int, default=10)
     geometry_args(p, true=True)
     p.add_argument("--seed", type=int, default=0)

@@ -219,7 +219,7 @@ def _check_budget(max_evaluations: int) -> int:
 
 def calibrate(
     problem: CalibrationProblem,
-    method: str = "lm",
+    method: str = "lm-batched",
     key: PRNGKeyArray | None = None,
     *,
     max_evaluations: int = DEFAULT_MAX_EVALUATIONS,

@@ -183,7 +183,7 @@ def diagnose_many(
         if e.model != model.name:
             raise ValueError(f"effect {e.name!r} belongs to model {e.model!r}, not {model.name!r}")
     train_b, test_b = _stack(trains), _stack(tests)
-    fits = fit_candidates(model, effects, trains, train_b, test_b)
+    fits = fit_candidates(model, effects, train_b, test_b)
     nb = model.base_initial.shape[0]
     k = len(effects)
     slices = effect_slices(model, effects)

@@ -6,7 +6,8 @@ not enter the prediction), so the base model, single candidates and candidate pa
 compiled kernel, and many data sets are fitted at once.
 
 References: Levenberg–Marquardt (Moré 1978, "The Levenberg–Marquardt algorithm: implementation
-and theory", Lecture Notes in Math. 630), here optimistix's; Gauss–Newton on the normal
+and theory", Lecture Notes in Math. 630), here the project's batched one
+(:class:`~stewart_jax.optimise.BatchedLevenbergMarquardt`), all data sets in one solve; Gauss–Newton on the normal
 equations with a Levenberg ridge (Nocedal and Wright 2006, "Numerical Optimization", §10.3).
 """
 
@@ -18,11 +19,11 @@ from typing import Any, NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import lineax as lx
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array, Float
 
+from ..optimise._batched_lm import BatchedLevenbergMarquardt, least_squares_batch
+from ..optimise._result import RESULTS
 from ._registry import AbstractDiscrepancyModel, Effect
 
 MAX_STEPS = 100
@@ -75,27 +76,26 @@ def _keep(model, effects, mask):
     return jnp.concatenate([jnp.ones(nb)] + [jnp.full(e.n_params, mask[i]) for i, e in enumerate(effects)])
 
 
-def _fit_lm(model, effects, data):
-    """Base fit from the model's starting parameters: optimistix Levenberg–Marquardt on the
-    residuals whitened at the starting parameters (base parameters only).
+def _base_residual(fixed, zb, args):
+    model, effects = fixed
+    data, w0 = args
+    n_eff = sum(e.n_params for e in effects)
+    return _white_residual(jnp.concatenate([zb, jnp.zeros(n_eff)]), (model, effects, jnp.zeros(len(effects)), data, w0))
 
-    NOTE: the damped steps are solved through the normal equations (``lineax.Normal`` with
-    Cholesky) rather than the default QR, ~20× faster on CPU at these sizes; the damping keeps
-    them well posed."""
-    none = jnp.zeros(len(effects))
+
+@eqx.filter_jit
+def _base_fits(model, effects, trains):
+    """Base fits of every stacked training set from the model's starting parameters: one
+    batched Levenberg–Marquardt solve (base parameters only) on the residuals whitened at the
+    starting parameters. Returns the scaled unknowns ``(b, n)`` (effects at 0) and whether each
+    fit converged."""
     nb = model.base_initial.shape[0]
     n_eff = sum(e.n_params for e in effects)
-    w0 = model.whitener(model.base_initial, data)
-    residual = lambda zb, args: _white_residual(jnp.concatenate([zb, jnp.zeros(n_eff)]), args)
-    sol = optx.least_squares(
-        residual,
-        optx.LevenbergMarquardt(rtol=1e-10, atol=1e-10, linear_solver=lx.Normal(lx.Cholesky())),
-        jnp.zeros(nb),
-        args=(model, effects, none, data, w0),
-        max_steps=MAX_STEPS,
-        throw=False,
-    )
-    return jnp.concatenate([sol.value, jnp.zeros(n_eff)]), sol.result == optx.RESULTS.successful
+    w0 = jax.vmap(lambda d: model.whitener(model.base_initial, d))(trains)
+    b = w0.shape[0]
+    res = least_squares_batch(jax.tree_util.Partial(_base_residual, (model, effects)),
+                              BatchedLevenbergMarquardt(max_steps=MAX_STEPS), jnp.zeros((b, nb)), args=(trains, w0))
+    return jnp.concatenate([res.params, jnp.zeros((b, n_eff))], axis=1), res.status == RESULTS.successful
 
 
 def _fit_gn(model, effects, mask, train, w_tr, test, z0):
@@ -168,7 +168,6 @@ def _map_datasets(fn, in_axes):
     return mapped
 
 
-_base_fit = eqx.filter_jit(_fit_lm)
 _prepare_many = eqx.filter_jit(eqx.filter_vmap(_prepare, in_axes=(None, None, 0, 0, 0)))
 fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0)))
 """``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b]) -> (z, χ², converged,
@@ -206,18 +205,13 @@ class BatchFits(NamedTuple):
 def fit_candidates(
     model: AbstractDiscrepancyModel,
     effects: Sequence[Effect],
-    train_list: Sequence[Any],
     trains: Any,
     tests: Any,
 ) -> BatchFits:
-    """Base fits of every training set (``train_list``; ``trains``/``tests`` the same data
-    sets stacked along a leading axis), then base + each single effect."""
+    """Base fits of every training set (``trains``; ``tests`` the held-out sets, both stacked
+    along a leading data-set axis), then base + each single effect."""
     k = len(effects)
-    # NOTE: the base fits run one data set at a time: a vmapped trust-region solver costs
-    # several times the compile time of the unbatched one, and each run takes ~0.1 s.
-    fits = [_base_fit(model, effects, t) for t in train_list]
-    z_base = jnp.stack([f[0] for f in fits])
-    ok = jnp.stack([f[1] for f in fits])
+    z_base, ok = _base_fits(model, effects, trains)
     w_tr, w_te, jac_tr, jac_te = _prepare_many(model, effects, trains, tests, z_base)
     b = z_base.shape[0]
     masks = jnp.broadcast_to(jnp.concatenate([jnp.zeros((1, k)), jnp.eye(k)]), (b, k + 1, k))

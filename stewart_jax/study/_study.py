@@ -301,7 +301,7 @@ def _check_study_args(methods, n_trials, plan, sigma_um, sigma_arcsec, half_widt
 
 
 def run_study(
-    methods: Sequence[str] = ("lm",),
+    methods: Sequence[str] = ("lm-batched",),
     n_trials: int = 5,
     seed: int = 0,
     plan: str = "paper8",
