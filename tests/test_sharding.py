@@ -18,7 +18,7 @@ from stewart_jax.study import run_study
 assert len(jax.devices()) == 4, jax.devices()
 out = {}
 for nd in (1, 2):  # 2 devices × 4 trials is the layout that once deadlocked
-    r = run_study(("lm",), n_trials=8, n_devices=nd, keep_trials=True, log=lambda s: None)
+    r = run_study(("lm-batched",), n_trials=8, n_devices=nd, keep_trials=True, log=lambda s: None)
     out[nd] = {k: v["calibration"]["per_trial_max"] + v["validation"]["per_trial_max"] for k, v in r["rows"].items()}
 json.dump(out, sys.stdout)
 """
