@@ -56,7 +56,7 @@ def test_strut_hexapod_file_through_the_command_line(tmp_path, capsys):
     assert main(["export", "rubin_m2", "--out", str(geo)]) == 0
     assert main(["simulate", "--geometry", str(geo), "--plan", "plan120", "--tracker", "--seed", "3",
                  "--out", str(csv), "--out-true", str(true_json)]) == 0
-    assert main(["calibrate", str(csv), "--geometry", str(geo), "--method", "lm", "--sigma-um", "3",
+    assert main(["calibrate", str(csv), "--geometry", str(geo), "--method", "lm-batched", "--sigma-um", "3",
                  "--json", str(cal_json), "--out-geometry", str(out_geo)]) == 0
     res = json.loads(cal_json.read_text())
     assert res["status"] == "success" and len(res["params"]) == 42

@@ -45,7 +45,7 @@ def test_cost_vmaps_over_population(noise_free, nominal, actual):
 
 def test_lm_recovers_control_accuracy_without_noise(noise_free, nominal, actual):
     problem = sj.calibration_problem(noise_free.data, nominal)
-    res = sj.calibrate(problem, "lm")
+    res = sj.calibrate(problem, "lm-batched")
     assert bool(res.status == sj.optimise.RESULTS.successful)
     assert float(res.cost) < 1e-20  # mm², i.e. residuals ~1e-11 mm: exact data, exact fit
     cal = nominal.with_params(res.params)
@@ -66,7 +66,7 @@ def test_lm_reaches_noise_floor_on_paper_protocol(nominal, actual):
     targets = sj.plan_poses("paper8", k1)
     sim = sj.simulate_measurements(k2, nominal, actual, targets)
     problem = sj.calibration_problem(sim.data, nominal)
-    res = sj.calibrate(problem, "lm")
+    res = sj.calibrate(problem, "lm-batched")
     s0 = float(problem.cost(problem.initial))
     J = jax.vmap(sj.kinematic_jacobian, in_axes=(None, 0))(actual, sim.true_poses)
     scale = np.array([1e-4] * 3 + [0.1 * sj.ARCSEC] * 3)

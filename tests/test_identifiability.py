@@ -59,7 +59,7 @@ def test_predicted_control_error_matches_monte_carlo(geoms):
     keys = jax.random.split(jax.random.key(2), 200)
     sims = jax.vmap(lambda k: sj.simulate_measurements(k, nom, act, targets))(keys)
     problems = jax.vmap(lambda d: sj.calibration_problem(d, nom))(sims.data)
-    res = sj.calibration.calibrate_batch(problems, "lm", keys)
+    res = sj.calibration.calibrate_batch(problems, "lm-batched", keys)
     assert np.all(np.asarray(res.status == sj.optimise.RESULTS.successful))
     val = sj.random_poses(jax.random.key(3), 42)
     errs = jax.jit(jax.vmap(lambda p: sj.control_error(sj.geometry_from_params(p), act, val).errors))(res.params)

@@ -198,7 +198,7 @@ def test_larger_parameter_sets_calibrate_what_the_paper_model_cannot():
     for ps in ("36", "54"):
         nominal = g.with_param_set(ps)
         problem = sj.calibration_problem(sim.data, nominal)
-        res = sj.calibrate(problem, "lm")
+        res = sj.calibrate(problem, "lm-batched")
         costs[ps] = float(res.cost)
         err = np.asarray(sj.control_error(problem.calibrated(res.params), true, fresh).errors)
         worst[ps] = np.abs(err[:, :3]).max()

@@ -376,7 +376,7 @@ def test_calibration_reaches_the_noise_floor(name):
     problem = sj.calibration_problem(sim.data, nominal, half_width=5.0)
     floor = float(problem.cost(actual.params))  # S at the true parameters: the tracker's noise
     start = float(problem.cost(nominal.params))
-    result = sj.calibrate(problem, "lm")
+    result = sj.calibrate(problem, "lm-batched")
     assert start > 1e3 * floor
     assert float(result.cost) <= floor  # the fit is at the noise floor (it also fits some noise)
 
