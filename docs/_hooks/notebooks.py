@@ -122,7 +122,11 @@ def _run(pending: list[tuple[Path, Path, str]]) -> None:
                     client.execute_cell(cell, index, execution_count=client.code_cells_executed + 1)
                 seconds = time.perf_counter() - start
                 check = nbformat.v4.new_code_cell(_AFTER_NOTEBOOK)
-                client.execute_cell(check, len(nb.cells), store_history=False)
+                nb.cells.append(check)  # nbclient stores a cell's outputs by its index
+                try:
+                    client.execute_cell(check, len(nb.cells) - 1, store_history=False)
+                finally:
+                    nb.cells.pop()
                 printed = "".join(o.get("text", "") for o in check.outputs if o.output_type == "stream")
                 nb.metadata[METADATA_KEY] = {
                     "key": key,
