@@ -11,7 +11,7 @@ DEMO_TRIALS ?= 10
 DEMO_BUDGET ?= 50000
 DEMO_METHODS ?= $(shell $(BIN)/python -c "from stewart_jax.calibration import METHODS; print(','.join(METHODS))")
 
-.PHONY: venv demo test lint bench bench-deps clean
+.PHONY: venv demo test lint docs bench bench-deps clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,6 +32,12 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check stewart_jax tests benchmarks
 
+# The documentation site in site/: mkdocs-material, the API reference from the docstrings, the
+# notebooks executed in quick mode. --strict: a broken link, a missing API object or a failing
+# notebook fails the build.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
 bench-deps: $(STAMP)
 	$(BIN)/python -m pip install --quiet pandas requests Pillow
 	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
@@ -46,4 +52,4 @@ bench: bench-deps
 	$(BIN)/python benchmarks/sharding.py
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build site *.egg-info

@@ -1,0 +1,178 @@
+"""The documentation site: ``mkdocs build --strict`` succeeds, every public name has an entry in
+the API reference, and the five notebooks are rendered executed, with their figures.
+
+The strict build is the one place where the test suite executes the notebooks
+(``tests/test_notebooks.py`` checks their jupytext form only): the build's notebook hook runs them
+in quick mode (``STEWART_JAX_QUICK=1``) in one shared Jupyter kernel, writes the executed
+notebooks to a folder this test chooses, and the tests below check those outputs — what the
+notebook test used to check after running each one with ``runpy``: no error, no figure written
+to ``notebooks/figures``, every figure shown and closed — and that their figures reach the pages.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import ModuleType, SimpleNamespace
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+API = ROOT / "docs" / "api"
+NOTEBOOKS = ROOT / "notebooks"
+PACKAGES = ["stewart_jax"] + [
+    f"stewart_jax.{name}"
+    for name in ("mechanism", "calibration", "optimise", "study", "discrepancy", "cable_robot", "plotting")
+]
+
+
+# --- the public API and the API pages -----------------------------------------------------------------
+
+
+def public_names(module: ModuleType) -> list[str]:
+    """The names a package exports: its explicit re-exports (``from ._x import name as name``)
+    and the names it loads on first access (listed by its ``__dir__`` but not yet bound)."""
+    tree = ast.parse(Path(module.__file__).read_text(encoding="utf-8"))
+    names = [
+        alias.name
+        for node in tree.body
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+        if alias.asname == alias.name and not alias.name.startswith("_")
+    ]
+    lazy = [n for n in dir(module) if not n.startswith("_") and n not in vars(module)]
+    return [n for n in dict.fromkeys(names + lazy) if not isinstance(getattr(module, n), ModuleType)]
+
+
+def api_entries() -> dict[str, list[str]]:
+    """``{identifier: [members listed]}`` of every ``:::`` directive in ``docs/api/*.md``."""
+    entries: dict[str, list[str]] = {}
+    for page in sorted(API.glob("*.md")):
+        current = None
+        in_members = False
+        for line in page.read_text(encoding="utf-8").splitlines():
+            if m := re.match(r"^::: (\S+)\s*$", line):
+                current = m.group(1)
+                entries[current] = []
+                in_members = False
+            elif current and re.match(r"^\s+members:\s*$", line):
+                in_members = True
+            elif current and in_members and (m := re.match(r"^\s+- (\w+)\s*$", line)):
+                entries[current].append(m.group(1))
+            elif line and not line.startswith(" "):  # the directive's options block has ended
+                current, in_members = None, False
+    return entries
+
+
+def resolve(identifier: str):
+    """The object a directive names: import the longest module prefix, then the attributes."""
+    parts = identifier.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        for attr in parts[i:]:
+            obj = getattr(obj, attr)
+        return obj
+    raise ImportError(identifier)
+
+
+def test_every_public_name_has_an_api_entry():
+    entries = api_entries()
+    documented = [(ident, resolve(ident)) for ident in entries]
+    missing = []
+    for package in PACKAGES:
+        module = importlib.import_module(package)
+        for name in public_names(module):
+            obj = getattr(module, name)
+            # The same object documented under another path (a re-export, an alias such as
+            # Geometry = PSSMechanism, a lazily loaded name) counts; for values that are not
+            # classes or functions (constants) the last component of the name must match too,
+            # as equal small numbers and strings may be one object in Python.
+            named = callable(obj) and hasattr(obj, "__qualname__")
+            if not any(o is obj and (named or ident.rsplit(".", 1)[-1] == name) for ident, o in documented):
+                missing.append(f"{package}.{name}")
+    assert not missing, f"public names without an entry in docs/api/*.md: {missing}"
+
+
+def test_listed_members_exist():
+    for ident, members in api_entries().items():
+        obj = resolve(ident)
+        for member in members:
+            assert hasattr(obj, member), f"{ident} has no member {member!r} (listed in docs/api)"
+
+
+def test_every_subpackage_has_an_api_page():
+    pages = {p.stem for p in API.glob("*.md")}
+    assert pages == {"index"} | {p.rsplit(".", 1)[-1] for p in PACKAGES[1:]}
+
+
+# --- the strict build, with the notebooks executed ----------------------------------------------------------
+
+
+def _figure_state() -> dict[str, int]:
+    folder = NOTEBOOKS / "figures"
+    return {p.name: p.stat().st_mtime_ns for p in folder.glob("*")} if folder.exists() else {}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("docs")
+    env = dict(os.environ)
+    env.pop("STEWART_JAX_DOCS_EXECUTE", None)
+    env.update(STEWART_JAX_DOCS_NOTEBOOKS=os.fspath(tmp / "executed"), NO_MKDOCS_2_WARNING="1")
+    before = _figure_state()
+    proc = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-f", os.fspath(ROOT / "mkdocs.yml"),
+         "-d", os.fspath(tmp / "site")],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=1500,
+    )
+    assert proc.returncode == 0, f"mkdocs build --strict failed:\n{proc.stderr[-6000:]}"
+    return SimpleNamespace(site=tmp / "site", executed=tmp / "executed" / "notebooks", log=proc.stderr,
+                           figures_before=before, figures_after=_figure_state())
+
+
+def test_strict_build_has_no_warning(built):
+    assert not re.search(r"^WARNING\s+-", built.log, flags=re.M), built.log[-4000:]
+
+
+def test_every_api_entry_is_rendered(built):
+    pages = {p.stem: (built.site / "api" / ("" if p.stem == "index" else p.stem) / "index.html").read_text(
+        encoding="utf-8") for p in API.glob("*.md")}
+    for page in API.glob("*.md"):
+        html = pages[page.stem]
+        for ident in re.findall(r"^::: (\S+)\s*$", page.read_text(encoding="utf-8"), flags=re.M):
+            assert f'id="{ident}"' in html, f"{ident} is not rendered on api/{page.stem}"
+    # A signature with its annotations, and the docstring's units, reach the page.
+    assert "solve_inverse_kinematics" in pages["mechanism"] and "Float[Array" in pages["mechanism"]
+
+
+NOTEBOOK_FILES = sorted(NOTEBOOKS.glob("[0-9][0-9]_*.py"))
+
+
+@pytest.mark.parametrize("path", NOTEBOOK_FILES, ids=lambda p: p.stem)
+def test_notebook_executed_in_quick_mode(built, path):
+    nb = json.loads((built.executed / f"{path.stem}.ipynb").read_text(encoding="utf-8"))
+    meta = nb["metadata"]["stewart_jax_docs"]
+    assert meta["seconds"] is not None, "the notebook was not executed"
+    code = [c for c in nb["cells"] if c["cell_type"] == "code"]
+    assert all(c.get("execution_count") for c in code), "every code cell ran"
+    outputs = [o for c in code for o in c["outputs"]]
+    assert not [o for o in outputs if o["output_type"] == "error"]
+    assert meta["open_figures"] == "[]", "every figure is shown (and closed) with plotting.show"
+    assert any("image/png" in o.get("data", {}) for o in outputs), "the notebook shows its figures"
+    # The rendered page embeds them.
+    html = (built.site / "notebooks" / path.stem / "index.html").read_text(encoding="utf-8")
+    assert "data:image/png;base64," in html
+
+
+def test_quick_mode_leaves_the_published_figures(built):
+    assert built.figures_after == built.figures_before, "quick mode must not write notebooks/figures"
+
