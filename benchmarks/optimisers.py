@@ -225,7 +225,9 @@ def main(argv=None) -> int:
         lines.append(f"| {r['method']} | {r['evaluations']} | {r['seconds']:.3f} | {cs} | {rate:.3g} | {xm} | "
                      f"{rate / numpy_rate:.1f}× |")
     scipy_fd = lm_rows[1]["seconds_per_calibration"]
-    lines += ["", "## Levenberg–Marquardt, time per calibration (8-pose problem, from nominal) — weak peers only: SciPy calling a JAX function or finite differences; the strong peer (NumPy residual + analytic Jacobian) is in batched_lm.md", "",
+    lines += ["", ("## Levenberg–Marquardt, time per calibration (8-pose problem, from nominal) — weak peers only: "
+              "SciPy calling a JAX function or finite differences; the strong peer (NumPy residual + analytic "
+              "Jacobian) is in batched_lm.md"), "",
               "| implementation | trials | run s | compile s | ms per calibration | speed-up vs SciPy (FD) "
               "| median S (mm²) |",
               "|---|---|---|---|---|---|---|"]
