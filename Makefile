@@ -46,6 +46,7 @@ bench: bench-deps
 	$(BIN)/python benchmarks/kinematics.py
 	$(BIN)/python benchmarks/optimisers.py
 	$(BIN)/python benchmarks/table2.py
+	$(BIN)/python benchmarks/comparison.py
 	$(BIN)/python benchmarks/fast.py
 	$(BIN)/python benchmarks/discrepancy.py
 	$(BIN)/python benchmarks/identifiability.py

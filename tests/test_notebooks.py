@@ -18,8 +18,8 @@ NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 FILES = sorted(NOTEBOOKS.glob("[0-9][0-9]_*.py"))
 
 
-def test_five_notebooks_exist():
-    assert [f.name[:2] for f in FILES] == ["01", "02", "03", "04", "05"]
+def test_six_notebooks_exist():
+    assert [f.name[:2] for f in FILES] == ["01", "02", "03", "04", "05", "06"]
 
 
 def test_notebook_names_do_not_name_a_seed_file():

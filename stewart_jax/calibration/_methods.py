@@ -37,11 +37,14 @@ from jaxtyping import PRNGKeyArray
 
 from ..mechanism._abstract import AbstractMechanism
 from ..optimise._batched_lm import BatchedLevenbergMarquardt, Blocks, least_squares_batch
+from ..optimise._cma_es import CMAES
 from ..optimise._cuckoo import CuckooSearch
+from ..optimise._differential_evolution import DifferentialEvolution
 from ..optimise._driver import minimise
 from ..optimise._hybrid import VSASMCSThenLM
 from ..optimise._jaxopt_lm import JaxoptLevenbergMarquardt
 from ..optimise._levenberg_marquardt import LevenbergMarquardt
+from ..optimise._pso import ParticleSwarm
 from ..optimise._result import OptimiseResult
 from ..optimise._simplex import NelderMead
 from ..optimise._smcs import SMCS
@@ -102,6 +105,9 @@ register_method("vsa-smcs", "VSA-SMCS", VSASMCS, "box", "Wang et al. 2018, §2.2
 register_method("vsa-smcs+lm", "VSA-SMCS+LM", _hybrid, "hybrid", "VSA-SMCS, then the batched LM from its best nest")
 register_method("nelder-mead", "Nelder-Mead (bounded)", NelderMead, "box",
                 "Nelder & Mead 1965; Gao & Han 2012 coefficients; bounded by projection")
+register_method("cma-es", "CMA-ES", CMAES, "box", "Hansen 2016, The CMA Evolution Strategy: A Tutorial")
+register_method("de", "DE (rand/1/bin)", DifferentialEvolution, "box", "Storn & Price 1997")
+register_method("pso", "PSO", ParticleSwarm, "box", "Kennedy & Eberhart 1995; Shi & Eberhart 1998 (inertia)")
 
 METHODS = tuple(METHOD_REGISTRY)
 """The registered method names, in registration order (at import time)."""

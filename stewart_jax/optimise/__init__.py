@@ -7,7 +7,9 @@ Nothing here knows about mechanisms or calibration: an objective is ``fn(y, args
 
 One algorithm per module, each opening with its citation: ``_levy`` (Mantegna's Lévy steps),
 ``_cuckoo`` (cuckoo search, Yang & Deb 2009), ``_simplex`` (Nelder–Mead on nests; bounded
-Nelder–Mead), ``_smcs`` and ``_vsa_smcs`` (Wang et al. 2018, §2), ``_levenberg_marquardt``
+Nelder–Mead), ``_smcs`` and ``_vsa_smcs`` (Wang et al. 2018, §2), the standard population
+baselines ``_cma_es`` (Hansen 2016), ``_differential_evolution`` (Storn & Price 1997) and ``_pso``
+(Kennedy & Eberhart 1995; Shi & Eberhart 1998), ``_levenberg_marquardt``
 (optimistix baseline), ``_jaxopt_lm`` (jaxopt cross-check), ``_batched_lm`` (the batched fast path: Nielsen's damping,
 Cholesky per separable block, a refilled working set), ``_hybrid`` (VSA-SMCS then LM);
 ``_driver`` runs every iterative one in one ``lax.scan``.
@@ -25,7 +27,9 @@ from ._batched_lm import (
     Blocks as Blocks,
     least_squares_batch as least_squares_batch,
 )
+from ._cma_es import CMAES as CMAES, CMAESState as CMAESState
 from ._cuckoo import CuckooSearch as CuckooSearch
+from ._differential_evolution import DifferentialEvolution as DifferentialEvolution
 from ._driver import (
     AbstractPopulationSolver as AbstractPopulationSolver,
     AbstractSolver as AbstractSolver,
@@ -42,6 +46,7 @@ from ._hybrid import VSASMCSThenLM as VSASMCSThenLM
 from ._jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
 from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, least_squares as least_squares
 from ._levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
+from ._pso import ParticleSwarm as ParticleSwarm, PSOState as PSOState
 from ._result import (
     RESULTS as RESULTS,
     STATUS_NAMES as STATUS_NAMES,

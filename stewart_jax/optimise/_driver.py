@@ -32,6 +32,7 @@ from typing import Any, NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax import lax
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
@@ -203,22 +204,32 @@ class AbstractPopulationSolver(AbstractSolver):
         return self.n_nests
 
 
+def holds(ok) -> bool:
+    """Whether a hyper-parameter check passed: ``ok`` a bool or an array of bools (every element
+    must hold), or a tracer — a hyper-parameter vmapped over settings, which cannot be checked
+    at construction and counts as passing (the caller checks the concrete batch of settings)."""
+    if isinstance(ok, jax.core.Tracer):
+        return True
+    return bool(np.all(np.asarray(ok)))
+
+
 def _check(solver, field: str, ok, requirement: str) -> None:
     """Raise at construction when a hyper-parameter is out of range, naming it."""
-    if not bool(ok):
+    if not holds(ok):
         raise ValueError(f"{type(solver).__name__}.{field} must be {requirement}, got {getattr(solver, field)!r}")
 
 
 def _check_shared(solver) -> None:
-    """The hyper-parameters the cuckoo-family solvers share, checked where a solver has them."""
+    """The hyper-parameters the cuckoo-family solvers share, checked where a solver has them
+    (elementwise for an array of settings; skipped for a tracer, see :func:`holds`)."""
     for name, ok, req in (
-        ("pa", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
-        ("lu", lambda v: 0.0 <= v <= 1.0, "a probability in [0, 1]"),
+        ("pa", lambda v: (0.0 <= v) & (v <= 1.0), "a probability in [0, 1]"),
+        ("lu", lambda v: (0.0 <= v) & (v <= 1.0), "a probability in [0, 1]"),
         ("alpha", lambda v: v > 0.0, "> 0"),
-        ("beta", lambda v: 0.0 < v <= 2.0, "a Lévy exponent in (0, 2]"),
-        ("n_worst", lambda v: 1 <= v <= solver.n_nests - 1, f"in [1, n_nests − 1 = {solver.n_nests - 1}]"),
+        ("beta", lambda v: (0.0 < v) & (v <= 2.0), "a Lévy exponent in (0, 2]"),
+        ("n_worst", lambda v: (1 <= v) & (v <= solver.n_nests - 1), f"in [1, n_nests − 1 = {solver.n_nests - 1}]"),
     ):
-        if hasattr(solver, name) and not ok(getattr(solver, name)):
+        if hasattr(solver, name) and not holds(ok(getattr(solver, name))):
             raise ValueError(f"{type(solver).__name__}.{name} must be {req}, got {getattr(solver, name)!r}")
 
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
+from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, holds, population_state
 from ._levy import BETA, mantegna_from_normals
 from ._simplex import SimplexCoefficients, simplex_on_worst
 
@@ -75,9 +75,11 @@ class VSASMCS(AbstractPopulationSolver):
     stall_rtol: float = 1e-6
 
     def __check_init__(self):
-        if not 1.0 <= self.p <= 30.0:
+        # d, sp_1, p, lu (and the coefficients) may be arrays — one value per setting, vmapped
+        # in a sensitivity study — or tracers inside that vmap (not checkable here: ``holds``)
+        if not holds((1.0 <= self.p) & (self.p <= 30.0)):
             raise ValueError(f"VSASMCS.p must be in the paper's range [1, 30], got {self.p!r}")
-        if not self.sp_1 >= 0.0:
+        if not holds(self.sp_1 >= 0.0):
             raise ValueError(f"VSASMCS.sp_1 must be >= 0, got {self.sp_1!r}")
         if self.max_generations is not None and not self.max_generations >= 1:
             raise ValueError(f"VSASMCS.max_generations must be None or >= 1, got {self.max_generations!r}")
