@@ -1,5 +1,5 @@
 """The documentation site: ``mkdocs build --strict`` succeeds, every public name has an entry in
-the API reference, and the five notebooks are rendered executed, with their figures.
+the API reference, and the six notebooks are rendered executed, with their figures.
 
 The strict build is the one place where the test suite executes the notebooks
 (``tests/test_notebooks.py`` checks their jupytext form only): the build's notebook hook runs them

@@ -2,7 +2,7 @@
 notebooks with the expected cells (what ``jupytext --to ipynb`` produces).
 
 Executing them is the documentation build's job: ``tests/test_docs.py`` builds the site with
-``mkdocs build --strict``, whose notebook hook runs the five notebooks in quick mode
+``mkdocs build --strict``, whose notebook hook runs the six notebooks in quick mode
 (``STEWART_JAX_QUICK=1``) in one shared kernel, and checks the executed outputs there (no error,
 no figure written to ``notebooks/figures``, every figure shown and closed, figures on the pages).
 They run once per test session, not once here and again for the site.
