@@ -27,7 +27,8 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
 
     # resuming from a complete checkpoint computes nothing: no chunk reports progress
     lines: list[str] = []
-    again = study.run_study(("lm-batched",), n_trials=4, chunk_size=2, checkpoint=ck, keep_trials=True, log=lines.append)
+    again = study.run_study(("lm-batched",), n_trials=4, chunk_size=2, checkpoint=ck, keep_trials=True,
+                            log=lines.append)
     assert not [line for line in lines if "trials" in line], lines
     assert again["rows"] == first["rows"]
     with pytest.raises(ValueError, match="other settings"):
@@ -36,7 +37,8 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
     # trials are stored by index: another chunk size resumes exactly (nothing recomputed, nothing
     # counted twice), and more trials extend the study by computing only the new ones
     lines.clear()
-    rechunked = study.run_study(("lm-batched",), n_trials=4, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
+    rechunked = study.run_study(("lm-batched",), n_trials=4, chunk_size=3, checkpoint=ck, keep_trials=True,
+                                log=lines.append)
     assert not [line for line in lines if "trials" in line], lines
     assert rechunked["rows"] == first["rows"]
     more = study.run_study(("lm-batched",), n_trials=5, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
