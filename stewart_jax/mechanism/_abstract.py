@@ -21,6 +21,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
@@ -38,6 +39,14 @@ class IKSolution(NamedTuple):
     strokes: Float[Array, "... 6"]
     margin: Float[Array, "... 6"]
     reachable: Bool[Array, "..."]
+
+
+def leg_block_columns(per_leg: Float[Array, "m legs k"]) -> Float[Array, "m*legs legs*k"]:
+    """Rows of a parameter Jacobian whose legs' parameters are disjoint blocks: the row of leg
+    ``i`` at pose ``j`` (row ``legs·j + i``) holds ``per_leg[j, i]`` in the ``k`` columns of leg
+    ``i`` (``k·i … k·i + k − 1``) and zeros elsewhere."""
+    m, legs, k = per_leg.shape
+    return (jnp.eye(legs)[None, :, :, None] * per_leg[:, :, None, :]).reshape(m * legs, legs * k)
 
 
 class AbstractMechanism(eqx.Module):

@@ -30,7 +30,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution
+from ._abstract import AbstractMechanism, IKSolution, leg_block_columns
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -279,11 +279,7 @@ class PSSMechanism(AbstractMechanism):
                              -(growth[..., 0] + growth[..., 1]) / (h * (h + e[:, 2]))], axis=-1)
         rot_minus_eye = parts.rot - jnp.eye(3)  # (m, 3, 3)
         d_upper = jnp.einsum("mij,mjk->mik", g, rot_minus_eye) + g_minus  # (m, 6, 3)
-        m = poses.shape[0]
-        eye = jnp.eye(N_LEGS)[None, :, :, None]  # block-diagonal in the leg
-        ju = (eye * d_upper[:, :, None, :]).reshape(m * N_LEGS, 18)
-        jl = (eye * -g_minus[:, :, None, :]).reshape(m * N_LEGS, 18)
-        return jnp.concatenate([ju, jl], axis=-1)
+        return jnp.concatenate([leg_block_columns(d_upper), leg_block_columns(-g_minus)], axis=-1)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PSSMechanism:

@@ -49,7 +49,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution
+from ._abstract import AbstractMechanism, IKSolution, leg_block_columns
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -216,15 +216,10 @@ class UPSMechanism(AbstractMechanism):
         ``platform_i``, ``−u_iᵀ`` for ``base_i`` and ``−1`` for ``lengths0_i``."""
         parts = _ik_parts(self, poses)
         u = parts.unit  # (m, 6, 3)
-        m = u.shape[0]
         d_platform = jnp.einsum("mij,mjk->mik", u, parts.rot)  # uᵀT, (m, 6, 3)
-        eye = jnp.eye(N_LEGS)
-        # block-diagonal in the strut: (m, 6 struts, 6 legs, 3)
-        jp = eye[None, :, :, None] * d_platform[:, :, None, :]
-        jb = -eye[None, :, :, None] * u[:, :, None, :]
-        jl = -jnp.broadcast_to(eye, (m, N_LEGS, N_LEGS))
         return jnp.concatenate(
-            [jp.reshape(m * N_LEGS, 18), jb.reshape(m * N_LEGS, 18), jl.reshape(m * N_LEGS, N_LEGS)], axis=-1
+            [leg_block_columns(d_platform), leg_block_columns(-u), leg_block_columns(-jnp.ones_like(u[..., :1]))],
+            axis=-1,
         )
 
     # ---- files ------------------------------------------------------------------------------
