@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.stats
+from _numpy_reference import rotation
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc
@@ -70,17 +71,6 @@ def test_pss_strokes_matches_library_ik_and_leg_constraint():
 # simulator and the fits share.
 
 
-def _rot(angles):
-    """``Rz(ψ)·Ry(θ)·Rx(φ)`` from the elementary rotations, batched."""
-    a = np.asarray(angles, dtype=float)
-    f, t, p = a[..., 0], a[..., 1], a[..., 2]
-    o, z = np.ones_like(f), np.zeros_like(f)
-    rx = np.stack([o, z, z, z, np.cos(f), -np.sin(f), z, np.sin(f), np.cos(f)], -1).reshape(*f.shape, 3, 3)
-    ry = np.stack([np.cos(t), z, np.sin(t), z, o, z, -np.sin(t), z, np.cos(t)], -1).reshape(*f.shape, 3, 3)
-    rz = np.stack([np.cos(p), -np.sin(p), z, np.sin(p), np.cos(p), z, z, z, o], -1).reshape(*f.shape, 3, 3)
-    return rz @ ry @ rx
-
-
 def _angles(r):
     phi = np.arctan2(r[..., 2, 1], r[..., 2, 2])
     return np.stack([phi, -np.arcsin(r[..., 2, 0]), np.arctan2(r[..., 1, 0], r[..., 0, 0])], -1)
@@ -92,14 +82,14 @@ def _oracle(effect, t, g, true_poses, d):
     axes = np.tile(ez, (6, 1))
     if effect == "actuator_tilt":
         a, b = t[:6], t[6:]
-        ry, rx = _rot(np.stack([0 * b, b, 0 * b], -1)), _rot(np.stack([a, 0 * a, 0 * a], -1))
+        ry, rx = rotation(np.stack([0 * b, b, 0 * b], -1)), rotation(np.stack([a, 0 * a, 0 * a], -1))
         axes = np.einsum("lij,ljk,k->li", ry, rx, ez)
     up, lo, v0 = np.asarray(g.upper), np.asarray(g.lower), np.asarray(g.v0)
     l0 = np.linalg.norm(up + v0 - lo, axis=-1)
     length = np.broadcast_to(l0, (len(true_poses), 6))
     if effect == "thermal_expansion":
         length = l0 * (1.0 + t * (np.asarray(d.temperature)[:, None] - dc.T_REF_C))
-    w = np.einsum("mij,lj->mli", _rot(true_poses[:, 3:]), up) + true_poses[:, None, :3] + v0 - lo
+    w = np.einsum("mij,lj->mli", rotation(true_poses[:, 3:]), up) + true_poses[:, None, :3] + v0 - lo
     nw = np.einsum("li,mli->ml", axes, w)
     q = nw - np.sqrt(nw**2 - np.sum(w**2, -1) + length**2)
     q = {
@@ -110,8 +100,8 @@ def _oracle(effect, t, g, true_poses, d):
     }.get(effect, lambda: q)()
     measured = true_poses
     if effect == "tracker_misalignment":
-        rho, tau = _rot(t[:3]), t[3:]
-        r = np.einsum("ji,mjk->mik", rho, _rot(true_poses[:, 3:]))
+        rho, tau = rotation(t[:3]), t[3:]
+        r = np.einsum("ji,mjk->mik", rho, rotation(true_poses[:, 3:]))
         measured = np.concatenate([(true_poses[:, :3] + v0 - tau) @ rho - v0, _angles(r)], -1)
     return q, measured
 

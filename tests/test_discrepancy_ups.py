@@ -17,6 +17,7 @@ import json
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _numpy_reference import rotation
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc
@@ -67,17 +68,6 @@ def reports(model, hidden):
 # ---------------------------------------------------------------- independent physics (NumPy)
 
 
-def _rot(angles):
-    """``Rz(ψ)·Ry(θ)·Rx(φ)`` from the elementary rotations, batched."""
-    a = np.asarray(angles, dtype=float)
-    f, t, p = a[..., 0], a[..., 1], a[..., 2]
-    o, z = np.ones_like(f), np.zeros_like(f)
-    rx = np.stack([o, z, z, z, np.cos(f), -np.sin(f), z, np.sin(f), np.cos(f)], -1).reshape(*f.shape, 3, 3)
-    ry = np.stack([np.cos(t), z, np.sin(t), z, o, z, -np.sin(t), z, np.cos(t)], -1).reshape(*f.shape, 3, 3)
-    rz = np.stack([np.cos(p), -np.sin(p), z, np.sin(p), np.cos(p), z, z, z, o], -1).reshape(*f.shape, 3, 3)
-    return rz @ ry @ rx
-
-
 def _statics(rot, origin, platform, base):
     """Tension per unit payload weight: ``Σ t_i [u_i; r_i × u_i] = [0, 0, −1, 0, 0, 0]``."""
     r = np.einsum("mij,lj->mli", rot, platform)
@@ -90,10 +80,10 @@ def _statics(rot, origin, platform, base):
 def _oracle(effect, t, mech, measured, d):
     """Strut readings of the true strut hexapod when the instrument measures ``measured``."""
     platform, base, v0, l0 = (np.asarray(x) for x in (mech.platform, mech.base, mech.v0, mech.lengths0))
-    rot = _rot(measured[:, 3:])
+    rot = rotation(measured[:, 3:])
     origin = measured[:, :3] + v0  # A's origin in B
     if effect == "tracker_misalignment":
-        rho = _rot(t[:3])
+        rho = rotation(t[:3])
         rot, origin = np.einsum("ij,mjk->mik", rho, rot), origin @ rho.T + t[3:]
     length = np.linalg.norm(np.einsum("mij,lj->mli", rot, platform) + origin[:, None, :] - base, axis=-1)
     dt = np.asarray(d.temperature)[:, None] - dc.T_REF_C if d.temperature is not None else None
@@ -204,7 +194,7 @@ def test_tracker_misalignment_is_absorbed_by_the_base_joints(camera, model, rows
     t = ORACLE_THETA["tracker_misalignment"]
     e = dc.get_effect(dc.UPS_MODEL_NAME, "tracker_misalignment")
     misaligned = model.predict(camera.params, (e,), (jnp.asarray(t),), rows)
-    rho = _rot(t[:3])
+    rho = rotation(t[:3])
     moved = sj.mechanism.UPSMechanism((np.asarray(camera.base) - t[3:]) @ rho, camera.platform, camera.v0,
                                       camera.lengths0)
     np.testing.assert_allclose(misaligned, sj.inverse_kinematics(moved, rows.poses), rtol=0, atol=1e-10)
