@@ -204,16 +204,20 @@ def _run_one(kind, solver, problem, key, max_evaluations):
     return _run(kind, solver, problem, key, max_evaluations)
 
 
+def _lm_batch(solver: BatchedLevenbergMarquardt, starts, problems: CalibrationProblem) -> OptimiseResult:
+    """The batched LM on every problem of the batch from ``starts`` (per-leg blocks, the family's
+    Jacobian)."""
+    return least_squares_batch(_residuals, solver, starts, args=problems, jac=_jacobian(problems.mechanism),
+                               cost=_cost, blocks=_leg_blocks(problems))
+
+
 @eqx.filter_jit
 def _run_batch(kind, solver, problems, keys, max_evaluations):
     if isinstance(solver, BatchedLevenbergMarquardt):  # the fast path: its own batched loop
-        return least_squares_batch(_residuals, solver, problems.initial, args=problems,
-                                   jac=_jacobian(problems.mechanism), cost=_cost, blocks=_leg_blocks(problems))
+        return _lm_batch(solver, problems.initial, problems)
     if isinstance(solver, VSASMCSThenLM) and isinstance(solver.local_phase, BatchedLevenbergMarquardt):
         g = jax.vmap(lambda p, k: solver.explore(_cost, p.lower, p.upper, k, max_evaluations, p))(problems, keys)
-        lm = least_squares_batch(_residuals, solver.local_phase, g.params, args=problems,
-                                 jac=_jacobian(problems.mechanism), cost=_cost, blocks=_leg_blocks(problems))
-        return jax.vmap(solver.combine)(g, lm)
+        return jax.vmap(solver.combine)(g, _lm_batch(solver.local_phase, g.params, problems))
     return jax.vmap(lambda p, k: _run(kind, solver, p, k, max_evaluations))(problems, keys)
 
 
