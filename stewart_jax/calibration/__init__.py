@@ -55,6 +55,7 @@ from ._problem import (
     control_error as control_error,
     feasible_box as feasible_box,
     make_calibration_data as make_calibration_data,
+    population_objective as population_objective,
     stroke_residuals as stroke_residuals,
     summarize_control_error as summarize_control_error,
 )

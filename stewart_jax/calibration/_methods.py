@@ -49,7 +49,7 @@ from ..optimise._result import OptimiseResult
 from ..optimise._simplex import NelderMead
 from ..optimise._smcs import SMCS
 from ..optimise._vsa_smcs import VSASMCS
-from ._problem import CalibrationProblem
+from ._problem import CalibrationProblem, population_objective
 
 Kind = Literal["least_squares", "box", "hybrid"]
 
@@ -163,8 +163,7 @@ def _residuals(u, problem):
     return problem.residuals(u)
 
 
-def _cost(u, problem):
-    return problem.cost(u)
+_cost = population_objective
 
 
 def _jacobian(mechanism: AbstractMechanism):

@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
@@ -137,9 +138,53 @@ class CalibrationProblem(eqx.Module):
     def cost(self, params: Float[Array, " n"]) -> Float[Array, ""]:
         return calibration_cost(params, self.data, self.mechanism)
 
+    def population_cost(self, params: Float[Array, "k n"]) -> Float[Array, " k"]:
+        """``S(u)`` (eq. 9) for every row of ``params``: ``jax.vmap(self.cost)(params)`` to
+        rounding (+inf where a pose is unreachable or the value is not finite), through the
+        family's population layout
+        (:meth:`~stewart_jax.mechanism.AbstractMechanism.population_squared_residuals`).
+        A population optimiser that vmaps :func:`population_objective` gets it."""
+        sse, ok = self.mechanism.population_squared_residuals(params, self.data.poses, self.data.strokes)
+        return jnp.where(ok & jnp.isfinite(sse), sse, jnp.inf)
+
     def calibrated(self, params: Float[Array, " n"]) -> AbstractMechanism:
         """The mechanism with the calibrated parameters ``params``."""
         return self.mechanism.with_params(params)
+
+
+@jax.custom_jvp
+def population_objective(params: Float[Array, " n"], problem: CalibrationProblem) -> Float[Array, ""]:
+    """``problem.cost(params)`` as an objective ``fn(y, args)`` for the optimisers, whose
+    ``jax.vmap`` over ``params`` is :meth:`CalibrationProblem.population_cost`.
+
+    NOTE: population solvers are written per nest and evaluate a population with ``jax.vmap``
+    (:func:`stewart_jax.optimise.evaluate`), which keeps them generic; this function's batching
+    rule (``jax.custom_batching.custom_vmap``) swaps the vmapped per-nest cost for the family's
+    population layout whenever only ``params`` is batched (``problem`` batched too, e.g. one
+    problem per trial on the same axis, falls back to ``vmap`` of the cost). Derivatives, in
+    either mode, are those of :meth:`CalibrationProblem.cost` (a ``custom_jvp`` around the
+    batching rule, which JAX cannot differentiate under ``vmap`` or in reverse mode).
+    """
+    return _batched_cost(params, problem)
+
+
+@population_objective.defjvp
+def _population_objective_jvp(primals, tangents):
+    return jax.jvp(lambda u, p: p.cost(u), primals, tangents)
+
+
+@jax.custom_batching.custom_vmap
+def _batched_cost(params, problem):
+    return problem.cost(params)
+
+
+@_batched_cost.def_vmap
+def _batched_cost_vmap(axis_size, in_batched, params, problem):
+    params_batched, problem_batched = in_batched
+    if params_batched and not any(jax.tree.leaves(problem_batched)):
+        return problem.population_cost(params), True
+    in_axes = (0 if params_batched else None, jax.tree.map(lambda b: 0 if b else None, problem_batched))
+    return jax.vmap(lambda u, p: p.cost(u), in_axes=in_axes, axis_size=axis_size)(params, problem), True
 
 
 def feasible_box(

@@ -10,7 +10,9 @@ against :class:`AbstractMechanism`.
 
 A family implements ``params``, ``with_params``, ``solve_inverse_kinematics``, ``to_dict`` and
 ``from_dict``; the pose Jacobian and the parameter Jacobian have automatic-differentiation
-defaults that a family may override with closed forms. Register it with
+defaults that a family may override with closed forms, and the population objective
+(:meth:`AbstractMechanism.population_squared_residuals`) a ``vmap`` default that a family may
+override with a layout that vectorises over the population. Register it with
 :func:`~stewart_jax.mechanism.register_family` so geometry files naming it load.
 """
 
@@ -127,6 +129,25 @@ class AbstractMechanism(eqx.Module):
         sol = self.solve_inverse_kinematics(poses)
         jac = jax.vmap(jax.jacfwd(one))(flat).reshape(*poses.shape[:-1], 6, 6)
         return sol.strokes, sol.margin, jac
+
+    def population_squared_residuals(
+        self, params: Float[Array, "n p"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
+    ) -> tuple[Float[Array, " n"], Bool[Array, " n"]]:
+        """For every parameter vector ``params[k]`` of a population, ``Σ_j Σ_i (readings_ji −
+        q_i(poses_j; params[k]))²`` (mm²) with ``q`` the inverse kinematics of
+        ``self.with_params(params[k])``, and whether every pose is reachable there.
+
+        The objective a population optimiser evaluates (the calibration's ``S(u)`` for a whole
+        population at once). Default: ``jax.vmap`` over the rows of ``params``; a family may
+        override it with a structure-of-arrays layout (the population innermost) that XLA
+        vectorises, as the 6-PSS does. The result must equal the default to rounding.
+        """
+
+        def one(u):
+            sol = self.with_params(u).solve_inverse_kinematics(poses)
+            return jnp.sum((readings - sol.strokes) ** 2), jnp.all(sol.reachable)
+
+        return jax.vmap(one)(params)
 
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
         """``∂q/∂u`` at :attr:`params` for the stacked readings of ``poses`` (row ``6j + i``
