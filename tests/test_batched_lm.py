@@ -17,7 +17,7 @@ from scipy.optimize import least_squares as scipy_least_squares
 
 import stewart_jax as sj
 from stewart_jax.calibration import CalibrationData, calibrate, calibrate_batch, perturbed
-from stewart_jax.mechanism import preset, presets
+from stewart_jax.mechanism import AbstractMechanism, preset, presets
 from stewart_jax.optimise import RESULTS, BatchedLevenbergMarquardt, Blocks, least_squares_batch, status_name
 
 
@@ -142,6 +142,17 @@ def test_separable_blocks_give_the_unblocked_solution():
     dense = least_squares_batch(two, BatchedLevenbergMarquardt(), y0, args=jnp.ones(1))
     np.testing.assert_allclose(blocked.params, 1.0, atol=1e-9)
     np.testing.assert_allclose(dense.params, 1.0, atol=1e-9)
+
+    def block_jac(y, w):  # Rosenbrock's r = (10(y1 − y0²), 1 − y0)·w, per block: (K, m_k, n_k)
+        def one(z, s):
+            return jnp.array([[-20.0 * z[0], 10.0], [-1.0, 0.0]]) * s
+        return jnp.stack([one(y[:2], w), one(y[2:], 2.0 * w)])
+
+    exact = least_squares_batch(two, BatchedLevenbergMarquardt(), y0, args=jnp.ones(1), blocks=blocks, jac=block_jac)
+    np.testing.assert_allclose(exact.params, blocked.params, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="block Jacobian must have shape"):
+        least_squares_batch(two, BatchedLevenbergMarquardt(), y0, args=jnp.ones(1), blocks=blocks,
+                            jac=lambda y, w: block_jac(y, w)[:, :1])
     with pytest.raises(ValueError, match="blocks.cols"):
         least_squares_batch(two, BatchedLevenbergMarquardt(), y0, args=jnp.ones(1),
                             blocks=(np.array([[0, 1], [2, 3]]), np.array([[0, 1], [1, 3]])))
@@ -176,6 +187,21 @@ def test_leg_parameters_match_the_parameter_jacobians_sparsity(name):
         outside = np.delete(jac[:, i, :], list(leg), axis=-1)
         assert np.all(outside == 0.0)
         assert np.all(np.any(jac[:, i, list(leg)] != 0.0, axis=0))
+
+
+@pytest.mark.parametrize("name", [*presets(), "nominal/42", "nominal/54"])
+def test_leg_parameter_jacobian_is_the_autodiff_jacobians_leg_blocks(name):
+    # What lm-batched linearises with: per leg, its readings' derivatives by its own parameters,
+    # against the blocks of the forward-mode AD Jacobian (the abstraction's default).
+    base, _, pset = name.partition("/")
+    m = preset(base) if not pset else preset(base).with_param_set(pset)
+    poses = sj.random_poses(jax.random.key(2), 5, half=sj.calibration.reachable_travel(m))
+    blocks = np.asarray(m.leg_parameter_jacobian(poses))
+    ad = np.asarray(AbstractMechanism.parameter_jacobian(m, poses)).reshape(5, 6, -1)
+    assert blocks.shape == (6, 5, len(m.leg_parameters[0]))
+    for i, leg in enumerate(m.leg_parameters):
+        # entries O(1e-2..1), closed forms cancellation-free: rounding ~1e-16
+        np.testing.assert_allclose(blocks[i], ad[:, i, list(leg)], rtol=0, atol=1e-14)
 
 
 def simulated(nominal, actual, seed: int, n: int):

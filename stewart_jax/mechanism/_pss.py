@@ -30,7 +30,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution, leg_block_columns
+from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -257,7 +257,15 @@ class PSSMechanism(AbstractMechanism):
 
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
         """``∂q/∂u`` (row ``6j + i`` is leg ``i`` at pose ``j``); closed form for the paper's
-        36 parameters, forward-mode AD for the 42 and 54 sets.
+        36 parameters (:meth:`leg_parameter_jacobian`), forward-mode AD for the 42 and 54 sets."""
+        if not self.is_paper_model:
+            return super().parameter_jacobian(poses)
+        return dense_parameter_jacobian(self.leg_parameter_jacobian(poses), self.leg_parameters, self.n_params)
+
+    def leg_parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6 m k"]:
+        """Per leg ``i``, ``∂q_i/∂(Ac_i, Bc_i)`` at each pose (``(6, m, 6)``, columns in
+        :attr:`leg_parameters` order); closed form for the paper's 36 parameters, cut from the
+        AD Jacobian for the 42 and 54 sets.
 
         With ``e = Ac + v0 − Bc`` (the zero-pose rod, whose length ``|e|`` the rod keeps), ``ℓ``
         and ``h`` as in :meth:`ik_and_jacobian` and ``g = (ℓx/h, ℓy/h, 1)``, eq. 4 reads
@@ -269,7 +277,7 @@ class PSSMechanism(AbstractMechanism):
         and ``γ = δ(2e + δ)`` the growth terms of the IK, since ``h² − e_z² = −γx − γy``.
         """
         if not self.is_paper_model:
-            return super().parameter_jacobian(poses)
+            return super().leg_parameter_jacobian(poses)
         parts = _ik_parts(self, poses)
         ell, h, growth = parts.ell, parts.root, parts.growth  # (m, 6, 3), (m, 6), (m, 6, 3)
         e = self.upper + self.v0 - self.lower
@@ -279,7 +287,7 @@ class PSSMechanism(AbstractMechanism):
                              -(growth[..., 0] + growth[..., 1]) / (h * (h + e[:, 2]))], axis=-1)
         rot_minus_eye = parts.rot - jnp.eye(3)  # (m, 3, 3)
         d_upper = jnp.einsum("mij,mjk->mik", g, rot_minus_eye) + g_minus  # (m, 6, 3)
-        return jnp.concatenate([leg_block_columns(d_upper), leg_block_columns(-g_minus)], axis=-1)
+        return jnp.moveaxis(jnp.concatenate([d_upper, -g_minus], axis=-1), 0, 1)
 
     def population_squared_residuals(
         self, params: Float[Array, "n p"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]

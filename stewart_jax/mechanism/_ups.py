@@ -49,7 +49,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution, leg_block_columns
+from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -212,15 +212,17 @@ class UPSMechanism(AbstractMechanism):
         return parts.strokes, margin, jac
 
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m 42"]:
-        """Analytic ``∂q/∂u`` (row ``6j + i`` is strut ``i`` at pose ``j``): ``u_iᵀ·T`` for
-        ``platform_i``, ``−u_iᵀ`` for ``base_i`` and ``−1`` for ``lengths0_i``."""
+        """Analytic ``∂q/∂u`` (row ``6j + i`` is strut ``i`` at pose ``j``), from
+        :meth:`leg_parameter_jacobian`."""
+        return dense_parameter_jacobian(self.leg_parameter_jacobian(poses), self.leg_parameters, self.n_params)
+
+    def leg_parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6 m 7"]:
+        """Per strut ``i``, ``∂q_i/∂(platform_i, base_i, lengths0_i)`` at each pose: ``u_iᵀ·T``,
+        ``−u_iᵀ`` and ``−1`` (``(6, m, 7)``, :attr:`leg_parameters` order)."""
         parts = _ik_parts(self, poses)
         u = parts.unit  # (m, 6, 3)
         d_platform = jnp.einsum("mij,mjk->mik", u, parts.rot)  # uᵀT, (m, 6, 3)
-        return jnp.concatenate(
-            [leg_block_columns(d_platform), leg_block_columns(-u), leg_block_columns(-jnp.ones_like(u[..., :1]))],
-            axis=-1,
-        )
+        return jnp.moveaxis(jnp.concatenate([d_platform, -u, -jnp.ones_like(u[..., :1])], axis=-1), 0, 1)
 
     # ---- files ------------------------------------------------------------------------------
 

@@ -248,7 +248,9 @@ class BatchedLevenbergMarquardt(eqx.Module):
         pytree of arrays).
 
         - ``jac(y, args)``: the ``(m, n)`` Jacobian of the raveled residual with respect to the
-          raveled ``y`` (default: forward-mode autodiff, column-compressed over ``blocks``).
+          raveled ``y`` (default: forward-mode autodiff, column-compressed over ``blocks``), or
+          with ``blocks`` just its blocks, ``(K, m_k, n_k)``: ``[k, a, b]`` is the derivative of
+          residual ``rows[k, a]`` by parameter ``cols[k, b]``.
         - ``cost(y, args)``: the value reported (default ``Σ fn²``; a caller may mark
           infeasible points +inf, which reports ``nonfinite``).
         - ``blocks``: a :class:`Blocks` (or ``(rows, cols)``) where the residual is separable.
@@ -302,11 +304,17 @@ def _result(state: BatchedLMState, unravel, args, fn, cost) -> OptimiseResult:
 
 
 def _lineariser(fn, jac, blocks: Blocks):
-    """``y -> (r_k, J_k)``: the residual and Jacobian cut into blocks, ``(K, m_k)``, ``(K, m_k, n_k)``."""
+    """``y -> (r_k, J_k)``: the residual and Jacobian cut into blocks, ``(K, m_k)``, ``(K, m_k, n_k)``.
+    ``jac`` may return the dense ``(m, n)`` Jacobian or its blocks ``(K, m_k, n_k)`` directly."""
     rows, cols = blocks
     if jac is not None:
         def linearise(y):
             j = jnp.asarray(jac(y), y.dtype)
+            if j.ndim == 3:
+                if j.shape != rows.shape + cols.shape[1:]:
+                    raise ValueError(f"a block Jacobian must have shape (K, m_k, n_k) = "
+                                     f"{rows.shape + cols.shape[1:]}, got {j.shape}")
+                return fn(y)[rows], j
             return fn(y)[rows], j[rows[:, :, None], cols[:, None, :]]
         return linearise
     # Column compression: direction k moves parameter cols[b, k] of every block b at once; a row
@@ -418,8 +426,9 @@ def _solve_batch(fn, solver, y0s, args, jac, cost, blocks):
     def step(s, a):
         return solver.step(problem.lineariser(a), s, problem.blocks)
 
-    state = jax.vmap(init)(y0_flat, args)
     width = batch if solver.working_set is None else min(batch, solver.working_set)
+    # one working set at a time, so that the initial Jacobians of a large batch never all sit in memory
+    state = lax.map(lambda ya: init(*ya), (y0_flat, args), batch_size=width)
     state = _refill_loop(solver.terminate, jax.vmap(step), state, args, batch, width)
     return jax.vmap(lambda s, a: _result(s, unravel, a, fn, cost))(state, args)
 
