@@ -145,11 +145,26 @@ def _fk_one(
     return FKSolution(pose, err <= tol, jnp.max(jnp.abs(f)), steps)
 
 
+_FK_CHUNK = 128
+"""Poses solved together by one vmapped Newton loop (see :func:`_fk_batched`)."""
+
+
 @eqx.filter_jit
 def _fk_batched(mechanism, strokes, initial_poses, tol, max_steps):
+    """:func:`_fk_one` over every pose, in chunks of ``_FK_CHUNK`` poses.
+
+    NOTE: one vmapped ``while_loop`` over all poses keeps every pose's state — its 6 × 6
+    Jacobian among it — in arrays as long as the batch, which each Newton iteration streams
+    through memory several times (46 MB of Jacobians for the 162 000 poses of a 1000-trial
+    study). ``lax.map`` over chunks of 128 poses keeps a chunk's state in cache and lets a chunk
+    stop after its own slowest pose: 1.9× faster on 162 000 6-PSS poses (6.3 → 3.4 µs per pose;
+    32–512 measured, 64–256 within 10 %). Each pose's iterates are the same as alone, up to the
+    rounding of differently fused code (≤ 1e-12 mm, the convergence tolerance).
+    """
     flat_q = strokes.reshape(-1, 6)
     flat_p0 = jnp.broadcast_to(initial_poses, strokes.shape).reshape(-1, 6)
-    sol = jax.vmap(_fk_one, in_axes=(None, 0, 0, None, None))(mechanism, flat_q, flat_p0, tol, max_steps)
+    sol = jax.lax.map(lambda qp: _fk_one(mechanism, qp[0], qp[1], tol, max_steps), (flat_q, flat_p0),
+                      batch_size=_FK_CHUNK)
     batch = strokes.shape[:-1]
     return FKSolution(
         sol.poses.reshape(*batch, 6),
