@@ -23,6 +23,10 @@ def _mechanisms():
     axes = np.tile([0.0, 0.0, 1.0], (6, 1)) + np.random.default_rng(1).normal(0.0, 0.05, (6, 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
     cases["nominal/tilted-axes"] = sj.mechanism.PSSMechanism(nominal.upper, nominal.lower, nominal.v0, axes=axes)
+    # a strut hexapod whose joint-angle limits bind inside the population (no preset has them)
+    d = preset("rubin_m2").to_dict()
+    d["joint_angle_limits"] = 1.5  # degrees: binds for a few rows of the population
+    cases["rubin_m2/joint-limits"] = sj.mechanism.UPSMechanism.from_dict(d)
     return cases
 
 
@@ -75,6 +79,14 @@ def test_the_6pss_population_has_unreachable_rows_and_reads_them_as_inf():
     assert np.isinf(cost[4]) and np.isfinite(cost[5:]).all()
     # the nominal row's S is the noise: 54 readings with σ = 1 µm
     assert 0.2 * 54e-6 < cost[0] < 3.0 * 54e-6
+
+
+def test_the_joint_angle_limit_case_has_rows_on_both_sides_of_it():
+    # so that the comparison above exercises the strut family's joint-angle margin both ways
+    name = "rubin_m2/joint-limits"
+    problem, pop = _problem_and_population(MECHANISMS[name], seed=len(name))
+    cost = np.asarray(problem.population_cost(pop))
+    assert np.isinf(cost).any() and np.isfinite(cost[0])  # the nominal row is inside the limits
 
 
 def test_population_objective_batching_rule_falls_back_when_the_problem_is_batched_too():

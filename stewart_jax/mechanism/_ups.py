@@ -45,7 +45,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
@@ -211,6 +211,52 @@ class UPSMechanism(AbstractMechanism):
         )
         return parts.strokes, margin, jac
 
+    def population_squared_residuals(
+        self, params: Float[Array, "n 42"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
+    ) -> tuple[Float[Array, " n"], Bool[Array, " n"]]:
+        """``Σ (readings − q(poses; u))²`` and reachability (stroke limits, joint angles) for
+        every row ``u`` of ``params``, in structure-of-arrays form: every quantity an ``(m, n)``
+        array, the population innermost (see
+        :meth:`~stewart_jax.mechanism.PSSMechanism.population_squared_residuals`); the same
+        cancellation-free strut length as :meth:`solve_inverse_kinematics`."""
+        u = jnp.asarray(params, jnp.float64).T  # (42, n)
+        angles = poses[:, 3:]
+        t = rotation_matrix(angles)
+        tm1 = _rotation_minus_identity(angles)
+        t = [[t[:, a, b, None] for b in range(3)] for a in range(3)]  # (m, 1) each
+        tm1 = [[tm1[:, a, b, None] for b in range(3)] for a in range(3)]
+        d = [poses[:, k, None] for k in range(3)]
+        limits = None if self.stroke_limits is None else np.asarray(self.stroke_limits)
+        total, reachable = None, None
+        for i in range(N_LEGS):
+            p = [u[3 * i + k] for k in range(3)]  # platform_i, (n,) each
+            e = [p[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]  # zero-pose strut
+            e_len = jnp.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+            delta = [tm1[k][0] * p[0] + tm1[k][1] * p[1] + tm1[k][2] * p[2] + d[k] for k in range(3)]
+            strut = [e[k] + delta[k] for k in range(3)]
+            length = jnp.sqrt(strut[0] * strut[0] + strut[1] * strut[1] + strut[2] * strut[2])
+            growth = sum(delta[k] * (2.0 * e[k] + delta[k]) for k in range(3))
+            denom = length + e_len
+            ok = denom > 0
+            q = jnp.where(ok, growth / jnp.where(ok, denom, 1.0), length - e_len) + (e_len - u[36 + i])
+            margin = length
+            if limits is not None or self.joint_angle_limit is not None:
+                margins = []
+                if limits is not None:
+                    margins += [q - limits[i, 0], limits[i, 1] - q]
+                if self.joint_angle_limit is not None:
+                    s_in_a = [t[0][j] * strut[0] + t[1][j] * strut[1] + t[2][j] * strut[2] for j in range(3)]
+                    theta = jnp.maximum(_angle_soa(strut, e), _angle_soa(s_in_a, e))
+                    margins.append(length * (self.joint_angle_limit[i] - theta))
+                margin = margins[0]
+                for x in margins[1:]:
+                    margin = jnp.minimum(margin, x)
+            sq = (readings[:, i, None] - q) ** 2
+            total = sq if total is None else total + sq
+            reachable = margin >= 0.0 if reachable is None else reachable & (margin >= 0.0)
+        reachable = jnp.all(reachable, axis=0) & jnp.all(valid_poses(poses))
+        return jnp.sum(total, axis=0), reachable
+
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m 42"]:
         """Analytic ``∂q/∂u`` (row ``6j + i`` is strut ``i`` at pose ``j``), from
         :meth:`leg_parameter_jacobian`."""
@@ -351,6 +397,12 @@ def _angle(a: Array, b: Array) -> Array:
     """Angle between vectors (rad), accurate near 0: ``atan2(|a × b|, a·b)``."""
     b = jnp.broadcast_to(b, a.shape)
     return jnp.arctan2(_norm(jnp.cross(a, b)), jnp.sum(a * b, axis=-1))
+
+
+def _angle_soa(a: list[Array], b: list[Array]) -> Array:
+    """:func:`_angle` of vectors given as three arrays of components."""
+    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    return jnp.arctan2(jnp.sqrt(sum(c * c for c in cross)), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
 
 
 def _norm(x: Array) -> Array:
