@@ -169,8 +169,9 @@ _cost = population_objective
 def _jacobian(mechanism: AbstractMechanism):
     """The residual's Jacobian, ``−∂q/∂u``, where the family has a closed-form
     ``parameter_jacobian``: its per-leg blocks (in :func:`_leg_blocks`' order) where the legs'
-    parameters are disjoint, else dense; ``None`` (autodiff) where it has only the autodiff default."""
-    if type(mechanism).parameter_jacobian is AbstractMechanism.parameter_jacobian:
+    parameters are disjoint, else dense; ``None`` (the solver's own column-compressed autodiff)
+    where it has none."""
+    if not mechanism.has_closed_form_parameter_jacobian:
         return None
     if mechanism.leg_parameters is not None:
         return lambda u, problem: -problem.mechanism.with_params(u).leg_parameter_jacobian(problem.data.poses)

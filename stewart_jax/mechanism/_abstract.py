@@ -171,6 +171,12 @@ class AbstractMechanism(eqx.Module):
 
         return jax.jacfwd(readings)(self.params)
 
+    @property
+    def has_closed_form_parameter_jacobian(self) -> bool:
+        """Whether :meth:`parameter_jacobian` is a closed form (else forward-mode AD, which a
+        least-squares solver can do better itself, e.g. by column compression over the legs)."""
+        return type(self).parameter_jacobian is not AbstractMechanism.parameter_jacobian
+
     def leg_parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6 m k"]:
         """The non-zero blocks of :meth:`parameter_jacobian` where the legs' parameters are
         disjoint (:attr:`leg_parameters` not ``None``): ``[i, j, c] = ∂q_ji/∂u[leg_parameters[i][c]]``.

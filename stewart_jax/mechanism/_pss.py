@@ -262,6 +262,11 @@ class PSSMechanism(AbstractMechanism):
             return super().parameter_jacobian(poses)
         return dense_parameter_jacobian(self.leg_parameter_jacobian(poses), self.leg_parameters, self.n_params)
 
+    @property
+    def has_closed_form_parameter_jacobian(self) -> bool:
+        """Closed form for the paper's mechanism only (the 42 and 54 sets use AD)."""
+        return self.is_paper_model
+
     def leg_parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6 m k"]:
         """Per leg ``i``, ``∂q_i/∂(Ac_i, Bc_i)`` at each pose (``(6, m, 6)``, columns in
         :attr:`leg_parameters` order); closed form for the paper's 36 parameters, cut from the
