@@ -24,8 +24,8 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/stewart-jax study --methods $(DEMO_METHODS) --trials $(DEMO_TRIALS) --max-evaluations $(DEMO_BUDGET)
 
-# Two workers, one test file each (module fixtures and compilations stay shared within a file):
-# 13 min instead of 17 on the 2-core CI machine.
+# Two workers, one test file each (module fixtures and compilations stay shared within a file),
+# the slowest files first (tests/conftest.py): 13 min instead of 17 on the 2-core CI machine.
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 

@@ -35,16 +35,17 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
         study.run_study(("lm-batched",), n_trials=4, chunk_size=2, checkpoint=ck, sigma_um=0.5)
 
     # trials are stored by index: another chunk size resumes exactly (nothing recomputed, nothing
-    # counted twice), and more trials extend the study by computing only the new ones
+    # counted twice), and more trials extend the study by computing only the new ones (two, so
+    # that their chunk has the shape already compiled: a batch of 2)
     lines.clear()
     rechunked = study.run_study(("lm-batched",), n_trials=4, chunk_size=3, checkpoint=ck, keep_trials=True,
                                 log=lines.append)
     assert not [line for line in lines if "trials" in line], lines
     assert rechunked["rows"] == first["rows"]
-    more = study.run_study(("lm-batched",), n_trials=5, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
-    assert [line for line in lines if "trials" in line] == [lines[-1]] and "for 1 trials" in lines[-1]
+    more = study.run_study(("lm-batched",), n_trials=6, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
+    assert [line for line in lines if "trials" in line] == [lines[-1]] and "for 2 trials" in lines[-1]
     got = more["rows"]["LM (batched)"]["validation"]["per_trial_max"]
-    assert len(got) == 5 and got[:4] == lm["validation"]["per_trial_max"]
+    assert len(got) == 6 and got[:4] == lm["validation"]["per_trial_max"]
 
 
 @pytest.mark.parametrize("content", ["[]", '{"version": 2, "config_hash": "x", "tri', "\xff\xfe", "{}"])
