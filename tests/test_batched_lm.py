@@ -196,8 +196,8 @@ def test_leg_parameter_jacobian_is_the_autodiff_jacobians_leg_blocks(name):
     base, _, pset = name.partition("/")
     m = preset(base) if not pset else preset(base).with_param_set(pset)
     poses = sj.random_poses(jax.random.key(2), 5, half=sj.calibration.reachable_travel(m))
-    blocks = np.asarray(m.leg_parameter_jacobian(poses))
-    ad = np.asarray(AbstractMechanism.parameter_jacobian(m, poses)).reshape(5, 6, -1)
+    blocks = np.asarray(jax.jit(type(m).leg_parameter_jacobian)(m, poses))
+    ad = np.asarray(jax.jit(AbstractMechanism.parameter_jacobian)(m, poses)).reshape(5, 6, -1)
     assert blocks.shape == (6, 5, len(m.leg_parameters[0]))
     for i, leg in enumerate(m.leg_parameters):
         # entries O(1e-2..1), closed forms cancellation-free: rounding ~1e-16

@@ -65,7 +65,7 @@ def _assert_same_cost(actual, expected):
 @pytest.mark.parametrize("name", sorted(MECHANISMS))
 def test_population_cost_equals_the_vmapped_cost(name):
     problem, pop = _problem_and_population(MECHANISMS[name], seed=len(name))
-    expected = jax.vmap(problem.cost)(pop)
+    expected = jax.jit(lambda p, x: jax.vmap(p.cost)(x))(problem, pop)
     _assert_same_cost(jax.jit(type(problem).population_cost)(problem, pop), expected)
     # what the optimisers evaluate: their ``evaluate`` vmaps the objective over the population
     _assert_same_cost(jax.jit(lambda p, x: evaluate(lambda u: population_objective(u, p), x))(problem, pop), expected)
@@ -105,17 +105,23 @@ def test_population_objective_batching_rule_falls_back_when_the_problem_is_batch
     _assert_same_cost(nested(pops, batch), expected)
 
 
-def test_population_objective_forward_derivative_matches_finite_differences():
-    problem, pop = _problem_and_population(MECHANISMS["rubin_m2"], seed=5)
-    u, v = pop[6], jnp.asarray(np.random.default_rng(0).normal(size=pop.shape[1]))
-    _, tangent = jax.jvp(lambda x: population_objective(x, problem), (u,), (v,))
+def test_population_objective_derivatives_match_finite_differences():
+    problem, pop = _problem_and_population(MECHANISMS["nominal"], seed=5)
+    v = jnp.asarray(np.random.default_rng(0).normal(size=pop.shape[1]))
     h = 1e-3  # S is a smooth sum of squares in u: central differences err by O(h²) ≈ 1e-6 relative
-    fd = (problem.cost(u + h * v) - problem.cost(u - h * v)) / (2 * h)
-    np.testing.assert_allclose(float(tangent), float(fd), rtol=1e-5)
-    # and under vmap (the batching rule's jvp)
-    tangents = jax.vmap(lambda x: jax.jvp(lambda y: population_objective(y, problem), (x,), (v,))[1])(pop[4:8])
-    expected = jax.vmap(lambda x: jax.jvp(problem.cost, (x,), (v,))[1])(pop[4:8])
-    np.testing.assert_allclose(np.asarray(tangents), np.asarray(expected), rtol=1e-9)
-    # reverse mode too, and the optimisers' vmapped evaluation under jit still takes the population layout
-    grad = jax.grad(lambda x: population_objective(x, problem))(u)
-    np.testing.assert_allclose(float(grad @ v), float(fd), rtol=1e-5)
+
+    @jax.jit  # one compilation for every derivative below (op by op they cost seconds each)
+    def derivatives(problem, pop):
+        u = pop[6]
+        tangent = jax.jvp(lambda x: population_objective(x, problem), (u,), (v,))[1]
+        fd = (problem.cost(u + h * v) - problem.cost(u - h * v)) / (2 * h)
+        # under vmap (the batching rule's jvp), against the per-member cost's jvp
+        tangents = jax.vmap(lambda x: jax.jvp(lambda y: population_objective(y, problem), (x,), (v,))[1])(pop[4:8])
+        expected = jax.vmap(lambda x: jax.jvp(problem.cost, (x,), (v,))[1])(pop[4:8])
+        grad = jax.grad(lambda x: population_objective(x, problem))(u)  # reverse mode too
+        return tangent, fd, tangents, expected, grad @ v
+
+    tangent, fd, tangents, expected, grad_v = (np.asarray(x) for x in derivatives(problem, pop))
+    np.testing.assert_allclose(tangent, fd, rtol=1e-5)
+    np.testing.assert_allclose(tangents, expected, rtol=1e-9)
+    np.testing.assert_allclose(grad_v, fd, rtol=1e-5)
