@@ -19,6 +19,7 @@ override with a layout that vectorises over the population. Register it with
 from __future__ import annotations
 
 import abc
+from collections.abc import Iterable
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
@@ -26,6 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
+
+from .._checks import valid_poses
 
 
 class IKSolution(NamedTuple):
@@ -49,6 +52,22 @@ def leg_block_columns(per_leg: Float[Array, "m legs k"]) -> Float[Array, "m*legs
     ``i`` (``k·i … k·i + k − 1``) and zeros elsewhere."""
     m, legs, k = per_leg.shape
     return (jnp.eye(legs)[None, :, :, None] * per_leg[:, :, None, :]).reshape(m * legs, legs * k)
+
+
+def population_totals(
+    readings: Float[Array, "m 6"], poses: Float[Array, "m 6"], legs: Iterable[tuple[Array, Array]]
+) -> tuple[Float[Array, " n"], Bool[Array, " n"]]:
+    """The end of a family's structure-of-arrays
+    :meth:`AbstractMechanism.population_squared_residuals`: from each leg ``i``'s readings and
+    margins ``(q_i, margin_i)``, both ``(m, n)`` (pose by row, the population innermost), the sum
+    of squared residuals ``Σ_j Σ_i (readings_ji − q_i)²`` and whether every leg is assembled at
+    every (valid) pose, per population member."""
+    total, reachable = None, None
+    for i, (q, margin) in enumerate(legs):
+        sq = (readings[:, i, None] - q) ** 2
+        total = sq if total is None else total + sq
+        reachable = margin >= 0.0 if reachable is None else reachable & (margin >= 0.0)
+    return jnp.sum(total, axis=0), jnp.all(reachable, axis=0) & jnp.all(valid_poses(poses))
 
 
 def dense_parameter_jacobian(

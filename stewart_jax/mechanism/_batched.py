@@ -41,7 +41,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import MAX_ANGLE_RAD, check_array, check_poses
 from ._abstract import AbstractMechanism, IKSolution
 from ._kinematics import FKSolution, ik_and_jacobian
-from ._pss import PSSMechanism
+from ._pss import PSSMechanism, leg_stroke
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: through x¹³ and x¹⁴. For |x| ≤ 0.5 the
 # truncation error is < 5e-17 and the Horner evaluation agrees with libm to 1 ulp (checked
@@ -82,31 +82,13 @@ def _rotation_rows(angles, sincos):
 
 def _ik_rows(geometry: PSSMechanism, poses_soa, sincos):
     """Eq. 4 leg by leg on rows; returns (strokes, margin) as lists of 6 rows."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rotation_rows(poses_soa[3:6], sincos)
-    dx, dy, dz = poses_soa[0], poses_soa[1], poses_soa[2]
+    r = _rotation_rows(poses_soa[3:6], sincos)
+    t = [r[0:3], r[3:6], r[6:9]]
+    d = [poses_soa[0], poses_soa[1], poses_soa[2]]
     upper = geometry.upper
     e = upper + geometry.v0 - geometry.lower
-    strokes, margins = [], []
-    for i in range(6):
-        ux, uy, uz = upper[i, 0], upper[i, 1], upper[i, 2]
-        ex, ey, ez = e[i, 0], e[i, 1], e[i, 2]
-        # δ = T·Ac − Ac + d, the joint's displacement from the zero pose.
-        ddx = r00 * ux + r01 * uy + r02 * uz - ux + dx
-        ddy = r10 * ux + r11 * uy + r12 * uz - uy + dy
-        ddz = r20 * ux + r21 * uy + r22 * uz - uz + dz
-        gx = ddx * (2.0 * ex + ddx)
-        gy = ddy * (2.0 * ey + ddy)
-        gz = ddz * (2.0 * ez + ddz)
-        margin = ez * ez - gx - gy
-        root = jnp.sqrt(jnp.maximum(margin, 0.0))
-        lz = ez + ddz
-        denom = lz + root
-        ok = denom > 0
-        # Same branch as solve_inverse_kinematics: rationalised where ℓz + sqrt(m) > 0.
-        q = jnp.where(ok, (gx + gy + gz) / jnp.where(ok, denom, 1.0), lz - root)
-        strokes.append(q)
-        margins.append(margin)
-    return strokes, margins
+    legs = [leg_stroke(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
+    return [q for q, _ in legs], [margin for _, margin in legs]
 
 
 def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..."]) -> IKSolution:

@@ -30,7 +30,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian
+from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -315,24 +315,12 @@ class PSSMechanism(AbstractMechanism):
         rot = rotation_matrix(poses[:, 3:])
         t = [[rot[:, a, b, None] for b in range(3)] for a in range(3)]  # (m, 1) each
         d = [poses[:, k, None] for k in range(3)]
-        total, reachable = None, None
-        for i in range(N_LEGS):
+
+        def leg(i):
             upper = [u[3 * i + k] for k in range(3)]  # Ac_i, (n,) each
-            e = [upper[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]  # Ac_i + v0 − Bc_i
-            # δ = T·Ac − Ac + d, γ = δ(2e + δ) (see solve_inverse_kinematics).
-            delta = [t[k][0] * upper[0] + t[k][1] * upper[1] + t[k][2] * upper[2] - upper[k] + d[k] for k in range(3)]
-            growth = [delta[k] * (2.0 * e[k] + delta[k]) for k in range(3)]
-            margin = e[2] * e[2] - growth[0] - growth[1]
-            root = jnp.sqrt(jnp.maximum(margin, 0.0))
-            lz = e[2] + delta[2]
-            denom = lz + root
-            ok = denom > 0
-            q = jnp.where(ok, (growth[0] + growth[1] + growth[2]) / jnp.where(ok, denom, 1.0), lz - root)
-            sq = (readings[:, i, None] - q) ** 2
-            total = sq if total is None else total + sq
-            reachable = margin >= 0.0 if reachable is None else reachable & (margin >= 0.0)
-        reachable = jnp.all(reachable, axis=0) & jnp.all(valid_poses(poses))
-        return jnp.sum(total, axis=0), reachable
+            return leg_stroke(t, d, upper, [upper[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)])
+
+        return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PSSMechanism:
@@ -360,6 +348,24 @@ class PSSMechanism(AbstractMechanism):
 
 Geometry = PSSMechanism
 """The 6-PSS mechanism under its original name."""
+
+
+def leg_stroke(t, d, upper, e):
+    """Eq. 4 of one leg in the cancellation-free form of
+    :meth:`PSSMechanism.solve_inverse_kinematics`, on components that broadcast against each
+    other (rows of poses, a population, or scalars): ``t`` the rotation's entries ``t[a][b]``,
+    ``d`` the translation, ``upper`` the joint ``Ac_i`` and ``e = Ac_i + v0 − Bc_i`` (three
+    components each). Returns the stroke and the margin."""
+    # δ = T·Ac − Ac + d, the joint's displacement from the zero pose; γ = δ(2e + δ).
+    delta = [t[k][0] * upper[0] + t[k][1] * upper[1] + t[k][2] * upper[2] - upper[k] + d[k] for k in range(3)]
+    growth = [delta[k] * (2.0 * e[k] + delta[k]) for k in range(3)]
+    margin = e[2] * e[2] - growth[0] - growth[1]
+    root = jnp.sqrt(jnp.maximum(margin, 0.0))
+    lz = e[2] + delta[2]
+    denom = lz + root
+    ok = denom > 0
+    # rationalised where ℓz + sqrt(m) > 0, as in solve_inverse_kinematics
+    return jnp.where(ok, (growth[0] + growth[1] + growth[2]) / jnp.where(ok, denom, 1.0), lz - root), margin
 
 
 class _IKParts(NamedTuple):

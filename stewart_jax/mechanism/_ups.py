@@ -49,7 +49,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._checks import valid_poses
 from .._math import rotation_matrix
-from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian
+from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, register_family, register_preset
 
 N_LEGS = 6
@@ -227,8 +227,8 @@ class UPSMechanism(AbstractMechanism):
         tm1 = [[tm1[:, a, b, None] for b in range(3)] for a in range(3)]
         d = [poses[:, k, None] for k in range(3)]
         limits = None if self.stroke_limits is None else np.asarray(self.stroke_limits)
-        total, reachable = None, None
-        for i in range(N_LEGS):
+
+        def leg(i):
             p = [u[3 * i + k] for k in range(3)]  # platform_i, (n,) each
             e = [p[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]  # zero-pose strut
             e_len = jnp.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
@@ -239,23 +239,19 @@ class UPSMechanism(AbstractMechanism):
             denom = length + e_len
             ok = denom > 0
             q = jnp.where(ok, growth / jnp.where(ok, denom, 1.0), length - e_len) + (e_len - u[36 + i])
-            margin = length
-            if limits is not None or self.joint_angle_limit is not None:
-                margins = []
-                if limits is not None:
-                    margins += [q - limits[i, 0], limits[i, 1] - q]
-                if self.joint_angle_limit is not None:
-                    s_in_a = [t[0][j] * strut[0] + t[1][j] * strut[1] + t[2][j] * strut[2] for j in range(3)]
-                    theta = jnp.maximum(_angle_soa(strut, e), _angle_soa(s_in_a, e))
-                    margins.append(length * (self.joint_angle_limit[i] - theta))
-                margin = margins[0]
-                for x in margins[1:]:
-                    margin = jnp.minimum(margin, x)
-            sq = (readings[:, i, None] - q) ** 2
-            total = sq if total is None else total + sq
-            reachable = margin >= 0.0 if reachable is None else reachable & (margin >= 0.0)
-        reachable = jnp.all(reachable, axis=0) & jnp.all(valid_poses(poses))
-        return jnp.sum(total, axis=0), reachable
+            margins = []  # as _margin: the strut's length where nothing limits it
+            if limits is not None:
+                margins += [q - limits[i, 0], limits[i, 1] - q]
+            if self.joint_angle_limit is not None:
+                s_in_a = [t[0][j] * strut[0] + t[1][j] * strut[1] + t[2][j] * strut[2] for j in range(3)]
+                theta = jnp.maximum(_angle_soa(strut, e), _angle_soa(s_in_a, e))
+                margins.append(length * (self.joint_angle_limit[i] - theta))
+            margin = margins[0] if margins else length
+            for x in margins[1:]:
+                margin = jnp.minimum(margin, x)
+            return q, margin
+
+        return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m 42"]:
         """Analytic ``∂q/∂u`` (row ``6j + i`` is strut ``i`` at pose ``j``), from
