@@ -112,7 +112,9 @@ def run_fast(args: argparse.Namespace) -> int:
         reflector_clearance,
         run_scenario_jit,
     )
+    from ._common import check_outputs
 
+    check_outputs(args, json="--json", plot="--plot")
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
         return 2
