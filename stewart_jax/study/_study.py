@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._files import write_text_atomic
+from ..calibration._assessment import GROSS_MISFIT_RATIO
 from ..calibration._methods import METHOD_LABELS as METHOD_LABELS, method_label
 from ..calibration._problem import (
     COMPONENTS,
@@ -471,6 +472,9 @@ def run_study(
     unsaved: dict[str, list[float]] = {}
     indices = [str(first_trial + i) for i in range(n_trials)]
     rows: dict[str, Any] = {}
+    warnings: list[str] = []
+    noise_mm = 0.0 if tracker else _stroke_noise_rms_mm(nominal, sigma_um, sigma_arcsec)
+    n_poses = 8 if plan == "paper8" else 120
     for method in [BEFORE, *methods]:
         calibrate = _calibrator(method, json.dumps(options.get(method, {}), sort_keys=True), n_devices)
         seconds: list[float] = []
@@ -493,9 +497,29 @@ def run_study(
         label = "Before calibration" if method == BEFORE else method_label(method)
         all_seconds = state["seconds"].get(method, []) if checkpoint else seconds
         rows[label] = _row(method, options.get(method, {}), merged, all_seconds, keep_trials)
+        if method != BEFORE and noise_mm > 0:
+            ratio = np.sqrt(np.asarray(merged["cost"], np.float64) / (6 * n_poses)) / noise_mm
+            gross = int(np.sum(~(ratio <= GROSS_MISFIT_RATIO)))
+            rows[label].update(residual_to_noise_median=float(np.median(ratio)), gross_misfit_trials=gross)
+            if gross:
+                warnings.append(
+                    f"{method}: {gross} of {n_trials} trials end with stroke residuals above {GROSS_MISFIT_RATIO:g}× "
+                    f"the stated noise (median {np.median(ratio):.3g}×): a gross misfit — the nominal geometry "
+                    "cannot explain the true mechanism's data (the wrong geometry or parameter set, a unit slip "
+                    "in a geometry file) or the method did not converge")
+                log(f"WARNING: {warnings[-1]}")
     return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
-            "n_devices": n_devices, "rows": rows,
+            "n_devices": n_devices, "rows": rows, "warnings": warnings,
             "paper_table2": PAPER_TABLE2 if paper else None}
+
+
+def _stroke_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
+    """RMS (mm) of the reading noise the pose noise causes at the zero pose: the scale against
+    which a trial's RMS residual ``sqrt(S / 6m)`` is a gross misfit (0 without noise)."""
+    from ..calibration._identifiability import pose_noise_covariance, stroke_noise_covariance
+
+    cov = stroke_noise_covariance(nominal, jnp.zeros((1, 6)), pose_noise_covariance(sigma_um, sigma_arcsec))
+    return float(np.sqrt(np.trace(np.asarray(cov)[0]) / 6))
 
 
 def _row(method, options, merged, seconds, keep_trials) -> dict[str, Any]:
