@@ -50,7 +50,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
-from ._registry import check_file_header, check_keys, register_family, register_preset
+from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS_UPS = 42
@@ -335,6 +335,7 @@ class UPSMechanism(AbstractMechanism):
             travel=travel,
         )
         _check_layout(m)
+        check_geometry(m)  # refusals before warnings
         _warn_unit_slips(m)
         return m
 
