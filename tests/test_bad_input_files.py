@@ -117,6 +117,7 @@ BAD_GEOMETRIES = {
     "negative zero-reading length": (_edit(M2, lengths0=[-480.0] + M2["lengths0"][1:]), "strut(s) [1] have [-480.0]"),
     "zero zero-reading length": (_edit(M2, lengths0=M2["lengths0"][:4] + [0.0, M2["lengths0"][5]]), "strut(s) [5]"),
     "zero-length strut": (_zero_length(M2), "strut 3 has zero length"),
+    "negative 6-PSS rod length": (_edit(PSS, rod_lengths=[200.0] * 5 + [-200.0]), "leg(s) [6] have [-200.0]"),
     "two identical legs": (_duplicate_leg(M2), "legs 2 and 4 are the same leg"),
     "two identical 6-PSS legs": (_duplicate_leg(PSS, "upper", "lower", ()), "legs 2 and 4 are the same leg"),
     # class: degenerate layouts, named by their cause
@@ -173,6 +174,8 @@ def _metres(d):
     (_edit(CAMERA, joint_angle_limits=0.26), "radians typed where degrees are expected? 0.26 rad = 14.9°"),
     # class: stroke limits in metres where mm are expected
     (_edit(CAMERA, stroke_limits=[-0.0141, 0.0141]), "metres typed where mm are expected"),
+    # class: stroke limits in µm where mm are expected (no limit at all in effect)
+    (_edit(CAMERA, stroke_limits=[-14100.0, 14100.0]), "micrometres typed where mm are expected"),
     # class: a whole file in metres labelled mm
     (_metres(M2), "a file in metres needs every length × 1000"),
 ])

@@ -477,7 +477,9 @@ def _positive(x: ArrayLike, name: str) -> Array:
         return x
     a = _checked_numpy(x, name, (N_LEGS,))
     if np.any(a <= 0):
-        raise ValueError(f"6-PSS {name} must be positive (mm), got {a.tolist()}")
+        bad = np.flatnonzero(a <= 0)
+        raise ValueError(f"6-PSS {name} must be positive (mm): leg(s) {(bad + 1).tolist()} have "
+                         f"{a[bad].tolist()} (all: {a.tolist()})")
     return jnp.asarray(a)
 
 

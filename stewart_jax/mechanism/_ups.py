@@ -528,6 +528,12 @@ def _warn_unit_slips(m: UPSMechanism) -> None:
     elif size > 1e5:
         warnings.warn(f"6-UPS geometry: joints {size / 1e3:.3g} m from the origin — lengths are mm: a file in "
                       "µm needs every length ÷ 1000", UserWarning, stacklevel=3)
+    if m.stroke_limits is not None:
+        span = max(hi - lo for lo, hi in m.stroke_limits)
+        longest = float(np.max(np.asarray(m.lengths0)))
+        if span > 2 * longest:
+            warnings.warn(f"6-UPS geometry: stroke_limits spanning {span:.4g} mm, more than twice the longest strut "
+                          f"({longest:.4g} mm): micrometres typed where mm are expected?", UserWarning, stacklevel=3)
     if m.stroke_limits is None and m.joint_angle_limit is None:
         return
     full = _reachable_scale(UPSMechanism(m.base, m.platform, m.v0, m.lengths0, travel=m.travel))

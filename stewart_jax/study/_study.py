@@ -429,11 +429,18 @@ def run_study(
     ``result["rows"][label]`` holds, for the calibration poses (``"calibration"``) and the
     validation poses (``"validation"``), the median and 90th percentile over trials of the
     per-trial max error (and the per-trial values with ``keep_trials``), plus the method's
-    cost, evaluation count, status counts, wall time and median convergence history.
+    cost, evaluation count, status counts, wall time and median convergence history, and for
+    every method the median over trials of the RMS stroke residual over the stroke noise the
+    stated pose noise causes (``residual_to_noise_median``; ≈ 1 or below when the nominal model
+    can explain the data) and ``gross_misfit_trials``, the trials above
+    :data:`~stewart_jax.calibration._assessment.GROSS_MISFIT_RATIO` (not with ``tracker``);
+    ``result["warnings"]`` says which methods had any.
 
     ``chunk_size`` trials are computed at a time (default: all at once); with ``checkpoint``
     each finished trial is saved under its index after every chunk, and a repeated run
     computes only the trials the file lacks (any chunk size; more trials extend the study).
+    Processes sharing one checkpoint merge their trials into it under a file lock; a damaged
+    trial record is refused, naming the trial.
     ``n_devices > 1`` splits each chunk's trials into one block per local JAX device (the
     chunk is padded to a multiple of ``n_devices``); the blocks run concurrently.
 
