@@ -16,7 +16,10 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     removed if writing fails."""
     directory = os.path.dirname(os.path.abspath(path))
     mode = _target_mode(path)
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(path)}-", suffix=".partial")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(path)}-", suffix=".partial")
+    except OSError as e:  # name the user's path, not the temporary file's
+        raise OSError(e.errno, f"cannot write {os.fspath(path)}: {e.strerror}") from None
     try:
         # NOTE: mkstemp creates its file with mode 0600 whatever the umask; renamed over ``path``
         # that would make an export or a HAL file unreadable to the controller's user. The new
@@ -26,9 +29,11 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(e, OSError):
+            raise OSError(e.errno, f"cannot write {os.fspath(path)}: {e.strerror}") from None
         raise
 
 

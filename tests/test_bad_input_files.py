@@ -241,3 +241,11 @@ def test_a_gross_misfit_outranks_rank_deficiency(m2_data):
                                 result={"status": "success", "n_poses": 3, "cost": 1.0, "rms_residual_um": 1.0},
                                 pose_errors={})
     assert "data status: `poor_fit`" in report and "gross misfit" in report
+
+
+def test_a_failed_write_names_the_users_path_not_the_temporary_file(tmp_path):
+    """Class: an output whose folder vanished between the check and the write."""
+    target = tmp_path / "gone" / "out.json"
+    with pytest.raises(OSError) as e:
+        write_text_atomic(target, "{}\n")
+    assert str(target) in str(e.value) and ".partial" not in str(e.value)
