@@ -453,3 +453,57 @@ def test_every_box_method_minimises_a_negative_objective(name):
     # the weakest of these methods at this budget (CS, α = 0.01) ends within 2e-3 of the minimum on
     # seed 0; 1e-2 on 19 of 20 seeds holds for every method with a wide margin
     assert np.sum(cost < -1000.0 + 1e-2) >= 19, cost
+
+
+class _GaussNewton(o.AbstractOptimiser):
+    """A new optimiser of a kind the package does not have (optimistix's Gauss–Newton on the
+    residual), written against the protocol alone: ``solve`` on an ``Objective``."""
+
+    max_steps: int = 50
+
+    def solve(self, objective, y0, lower, upper, key, args, max_evaluations):
+        import optimistix as optx
+
+        sol = optx.least_squares(objective.residuals, optx.GaussNewton(rtol=1e-9, atol=1e-9), y0, args=args,
+                                 max_steps=self.max_steps, throw=False)
+        cost = objective.cost(sol.value, args)
+        n = jnp.asarray(sol.stats["num_steps"] + 1, jnp.int32)
+        status = RESULTS.where(sol.result == optx.RESULTS.successful, RESULTS.successful, RESULTS.max_steps_reached)
+        return o.OptimiseResult(sol.value, cost, n, status, cost[None], n[None])
+
+
+def test_a_new_optimiser_is_one_class_and_its_registration():
+    # The protocol: registered once, a solver of a new kind runs through calibrate and
+    # calibrate_batch (the batch by the protocol's default vmap) with no other edit, and on
+    # this well-posed 8-pose problem lands on the optimistix LM's optimum.
+    from stewart_jax.calibration import register_method
+
+    register_method("gauss-newton-test", "Gauss-Newton", _GaussNewton, "least_squares")
+    try:
+        prob, _, lm = lm_result()
+        r = calibrate(prob, "gauss-newton-test", max_steps=30)
+        assert bool(r.status == RESULTS.successful)
+        np.testing.assert_allclose(float(r.cost), float(lm.cost), rtol=1e-6)
+        batch = jax.tree.map(lambda *a: jnp.stack(a), prob, _simulated(1)[0])
+        rb = calibrate_batch(batch, "gauss-newton-test", jax.random.split(jax.random.key(0), 2), max_steps=30)
+        np.testing.assert_allclose(float(rb.cost[0]), float(r.cost), rtol=1e-9)
+    finally:
+        METHOD_REGISTRY.pop("gauss-newton-test")
+
+
+def test_the_box_and_the_objective_are_checked_before_tracing():
+    fn = lambda x, _: jnp.sum(x**2)
+    key = jax.random.key(0)
+    with pytest.raises(ValueError, match=r"lower\[1\] = 2.0 is not below upper\[1\] = 1.0"):
+        minimise(fn, CuckooSearch(), jnp.array([0.0, 2.0]), jnp.array([1.0, 1.0]), key, max_evaluations=100)
+    with pytest.raises(ValueError, match=r"finite: upper\[0\] = inf"):
+        minimise(fn, CuckooSearch(), jnp.zeros(2), jnp.array([jnp.inf, 1.0]), key, max_evaluations=100)
+    with pytest.raises(ValueError, match=r"finite: lower\[1\] = nan"):
+        minimise(fn, CuckooSearch(), jnp.array([0.0, jnp.nan]), jnp.ones(2), key, max_evaluations=100)
+    with pytest.raises(ValueError, match=r"one number per point .* got shape\(s\) \[\(2,\)\]"):
+        minimise(lambda x, _: x**2, CuckooSearch(), jnp.zeros(2), jnp.ones(2), key, max_evaluations=100)
+    with pytest.raises(ValueError, match="target must be None or a real number"):
+        CuckooSearch(target=float("nan"))
+    with pytest.raises(ValueError, match="below the .* cost evaluations"):
+        prob, _, _ = lm_result()
+        calibrate(prob, "cs", max_evaluations=20)
