@@ -20,6 +20,8 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   curvature, smallest feasible tilt, maximum least tension).
 - :mod:`._modes` — beyond the paper: stiffness, mass matrix, natural frequencies and mode
   shapes of the cabin on its cables; the cables' own string frequencies.
+- :mod:`._lumped` — beyond the paper: lumped-mass cables (MoorDyn's discretisation), statics
+  of nodes and cabin together, and every mode of the whole system.
 """
 
 from ._attitude import (
@@ -48,6 +50,14 @@ from ._coupled import (
     matrix_to_quat as matrix_to_quat,
     quat_to_matrix as quat_to_matrix,
     simulate as simulate,
+)
+from ._lumped import (
+    LumpedModes as LumpedModes,
+    LumpedStatics as LumpedStatics,
+    ModalSummary as ModalSummary,
+    lumped_modes as lumped_modes,
+    lumped_statics as lumped_statics,
+    modal_summary as modal_summary,
 )
 from ._modes import (
     CabinModes as CabinModes,
