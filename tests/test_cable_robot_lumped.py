@@ -18,6 +18,7 @@ from stewart_jax.cable_robot import (
     static_equilibrium_jit,
 )
 from stewart_jax.cable_robot._lumped import (
+    _raise_if_failed,
     catenary_nodes,
     lumped_modes,
     lumped_potential,
@@ -156,6 +157,15 @@ def test_bad_input(static):
             lumped_statics(PARAMS, POS, n)
     with pytest.raises(ValueError, match="no static equilibrium of the elastic catenaries"):
         lumped_statics(PARAMS, np.array([150.0, 0.0, 200.0]), 8)
-    # a third cable three times too long: no equilibrium, and the slack cables named
-    with pytest.raises(ValueError, match=r"no equilibrium.*slack segments.*cable 3"):
-        lumped_statics(PARAMS, POS, 8, static=static._replace(s0=static.s0.at[2].multiply(3.0)))
+    # a third cable three times too long still hangs in tension (a chain under gravity has no
+    # slack segment at rest): the solver finds that equilibrium, with cable 3 carrying little
+    long = lumped_statics(PARAMS, POS, 8, static=static._replace(s0=static.s0.at[2].multiply(3.0)))
+    T = np.asarray(long.anchor_tension_n)
+    assert bool(long.converged) and T[2] < 0.6 * np.delete(T, 2).min()
+    # an iteration that stalls with slack segments names the cables
+    bad = long._replace(converged=jnp.asarray(False), residual_n=jnp.asarray(1e5),
+                        slack=jnp.array([False, False, True, False, False, True]))
+    with pytest.raises(ValueError, match=r"no equilibrium.*slack segments.*cable 3, cable 6"):
+        _raise_if_failed(bad, POS, static)
+    with pytest.raises(ValueError, match=r"slack segment in cable 3 at the lumped-mass equilibrium"):
+        _raise_if_failed(long._replace(slack=jnp.array([False, False, True, False, False, False])), POS, static)

@@ -216,36 +216,40 @@ def _statics(params, position, R, static, n_segments, max_steps, tol_m):
     alphas = 0.5 ** jnp.arange(16.0)
 
     def cond(c):
-        _, i, step, stalled = c
-        return (i < max_steps) & (step > tol_m) & ~stalled
+        _, i, step, lam = c
+        return (i < max_steps) & (step > tol_m) & (lam < 1e6)
 
-    # NOTE: Newton on ∇V = 0 with a backtracking (Armijo) line search on V itself. A slack
-    # segment leaves a node without transverse stiffness (a singular Hessian), so the Hessian
-    # gets a small diagonal shift, 1e-9 of its largest diagonal entry: it changes the path,
-    # never the solution (the gradient is exact), and is far below the smallest transverse
-    # stiffness of a taut segment at convergence. A step that lowers V by no fraction of its
-    # first-order prediction (up to the rounding of V, 1e-13 |V|) stops the iteration as
-    # stalled: a status, not a NaN.
+    # NOTE: Newton on ∇V = 0 with Marquardt's damping, (H + λ diag H) dy = −∇V, and a
+    # backtracking (Armijo) line search on V itself. Near a slack segment a node has (almost)
+    # no transverse stiffness and the plain Newton step is huge; a step that lowers V by no
+    # fraction of its first-order prediction (up to the rounding of V, 1e-13 |V|) is refused
+    # and λ grows a hundredfold (towards scaled steepest descent); an accepted full step
+    # shrinks it tenfold, down to 1e-12, so the end is Newton's. λ ≥ 1e6 stops the iteration
+    # as stalled: a status, not a NaN. The damping changes the path, never the solution (the
+    # gradient is exact).
     def body(c):
-        y, i, _, _ = c
+        y, i, _, lam = c
         v, g = val_grad(y)
         H = hess(y)
-        H = H + 1e-9 * jnp.max(jnp.abs(jnp.diag(H))) * jnp.eye(H.shape[0])
-        dy = jnp.linalg.solve(H, -g)
+        d = jnp.abs(jnp.diag(H))
+        d = jnp.maximum(d, 1e-9 * jnp.max(d))
+        dy = jnp.linalg.solve(H + lam * jnp.diag(d), -g)
         slope = jnp.dot(g, dy)
         trial = jax.vmap(lambda a: energy(y + a * dy))(alphas)
         good = jnp.isfinite(trial) & (trial <= v + 1e-4 * alphas * slope + 1e-13 * jnp.abs(v)) & (slope < 0)
         k = jnp.argmax(good)
-        alpha = jnp.where(jnp.any(good), alphas[k], 0.0)
-        step = jnp.max(jnp.abs(alpha * dy))
+        ok = jnp.any(good)
+        alpha = jnp.where(ok, alphas[k], 0.0)
         # a Newton step at a minimum too small to lower V in floating point is converged
-        tiny = jnp.max(jnp.abs(dy)) <= tol_m
+        tiny = (jnp.max(jnp.abs(dy)) <= tol_m) & (lam <= 1e-9)
         y_new = y + jnp.where(tiny, dy, alpha * dy)
-        stalled = ~jnp.any(good) & ~tiny
-        return y_new, i + 1, jnp.where(tiny, 0.0, step), stalled
+        step = jnp.where(tiny, 0.0, jnp.where(ok, jnp.max(jnp.abs(alpha * dy)), jnp.inf))
+        lam = jnp.where(ok & (k == 0), jnp.maximum(lam / 10.0, 1e-12), jnp.where(ok, lam, lam * 100.0))
+        return y_new, i + 1, step, lam
 
-    y, steps, last, stalled = jax.lax.while_loop(
-        cond, body, (y_ref, jnp.asarray(0), jnp.asarray(jnp.inf), jnp.asarray(False)))
+    y, steps, last, lam = jax.lax.while_loop(
+        cond, body, (y_ref, jnp.asarray(0), jnp.asarray(jnp.inf), jnp.asarray(1e-9)))
+    stalled = lam >= 1e6
     g = grad(y)
     q, X = _unpack(y, n_segments)
     nodes = _nodes(params, position, R, q, X)
@@ -265,7 +269,7 @@ def _statics(params, position, R, static, n_segments, max_steps, tol_m):
 
 
 @partial(jax.jit, static_argnames=("n_segments", "max_steps"))
-def _statics_jit(params, position, R, static, n_segments, max_steps=30, tol_m=1e-10):
+def _statics_jit(params, position, R, static, n_segments, max_steps=100, tol_m=1e-10):
     return _statics(params, position, R, static, n_segments, max_steps, tol_m)[0]
 
 
@@ -325,7 +329,7 @@ def _mass_matrix(params, st: LumpedStatics, n_segments):
 
 
 def _modes(params, position, R, static, n_segments):
-    st, y = _statics(params, position, R, static, n_segments, 30, 1e-10)
+    st, y = _statics(params, position, R, static, n_segments, 100, 1e-10)
 
     def energy(yy):
         q, X = _unpack(yy, n_segments)
