@@ -22,6 +22,8 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   shapes of the cabin on its cables; the cables' own string frequencies.
 - :mod:`._lumped` — beyond the paper: lumped-mass cables (MoorDyn's discretisation), statics
   of nodes and cabin together, and every mode of the whole system.
+- :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
+  (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
 """
 
 from ._attitude import (
@@ -58,6 +60,10 @@ from ._lumped import (
     lumped_modes as lumped_modes,
     lumped_statics as lumped_statics,
     modal_summary as modal_summary,
+)
+from ._lumped_time import (
+    LumpedTrajectory as LumpedTrajectory,
+    simulate_lumped as simulate_lumped,
 )
 from ._modes import (
     CabinModes as CabinModes,

@@ -163,7 +163,15 @@ def lumped_potential(
 ) -> Float[Array, ""]:
     """Potential energy ``V(q, X)`` (J) of the cabin assembly and the lumped cables: strain
     energy of the taut segments and the weight of every mass, up to a constant. ``X`` holds the
-    free nodes (``N − 1`` per cable) in G."""
+    free nodes (``N − 1`` per cable) in G; ``q`` is the cabin's offset from ``(position, R)``."""
+    # NOTE: the assembly is rigid (legs held), so its centre of mass is fixed in C: evaluated
+    # once at the requested attitude and carried by the rotation (no leg kinematics traced
+    # inside the Hessian or the time loop).
+    m, com0 = assembly_centre_of_mass(params, position, R)
+    return _potential(params, position, R, s0, q, X, m, R.T @ (com0 - position))
+
+
+def _potential(params, position, R, s0, q, X, m, com_C):
     n = X.shape[1] + 1
     l0 = s0 / n
     nodes = _nodes(params, position, R, q, X)
@@ -171,11 +179,7 @@ def lumped_potential(
     stretch = jnp.maximum(length - l0[:, None], 0.0)
     strain = jnp.sum(0.5 * params.cable.EA / l0[:, None] * stretch**2)
     p, Rq = _cabin_pose(position, R, q)
-    # NOTE: the assembly is rigid (legs held), so its centre of mass is fixed in C: evaluated
-    # once at the requested attitude and carried by the rotation (no leg kinematics traced
-    # inside the Hessian).
-    m, com0 = assembly_centre_of_mass(params, position, R)
-    com = p + Rq @ (R.T @ (com0 - position))
+    com = p + Rq @ com_C
     g = params.gravity
     rho = params.cable.rho
     weight = (-m * jnp.dot(com, g) - jnp.sum(0.5 * rho * l0 * (nodes[:, 0] @ g))
