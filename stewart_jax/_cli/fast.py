@@ -14,6 +14,14 @@ vector, tilt, ``G R_C``), ``tensions_n`` (six tensions at the cabin anchors),
 M-normalised shape) and ``cable_string_hz``. The JSON is strict: a number that is not finite
 is written as ``null``. A cabin whose statics are infeasible is reported, with its JSON, before
 any simulation, with exit status 1; a cabin below the reflector's surface is refused (exit 2).
+
+With ``--cables lumped --segments N --modes`` (lumped-mass cables; no time simulation): ``cables``
+→ ``model``, ``segments``, ``degrees_of_freedom``, ``anchor_tension_n``, ``top_tension_n``,
+``cabin_offset_m``/``cabin_offset_rad`` (the lumped equilibrium's offset from the catenary pose),
+``static_residual_n``; ``modes`` → ``frequencies_hz`` (every mode below ``cutoff_hz``, ascending),
+``kind`` (``cabin``/``string``), ``cabin_energy_share``, ``compliance_share`` (per coordinate
+``swing_x`` … ``yaw``, one value per listed mode), ``dominant`` (per coordinate: ``mode``, its
+0-based index among all modes, ``frequency_hz``, ``compliance_share``).
 """
 
 from __future__ import annotations
