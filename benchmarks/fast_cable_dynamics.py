@@ -17,7 +17,8 @@ Goupee 2015) against the quasi-static elastic catenaries of Yin J., Jiang P., Ch
 
 Not in this script (yet): the comparison with MoorDyn itself.
 
-Usage: ``.venv/bin/python benchmarks/fast_cable_dynamics.py [--quick] [--segments N]``. Writes
+Usage: ``.venv/bin/python benchmarks/fast_cable_dynamics.py [--quick] [--segments N]`` (the
+committed results: ``--segments 10``). Writes
 ``benchmarks/results/fast_cable_dynamics.{json,md}`` and ``fast_cable_dynamics_map.png`` there.
 """
 

@@ -34,12 +34,12 @@ def test_lumped_needs_modes(capsys):
 
 def test_lumped_modes_json(tmp_path):
     out = tmp_path / "lumped.json"
-    assert main(["fast", "--position", "0,0,140", "--modes", "--cables", "lumped", "--segments", "6",
+    assert main(["fast", "--position", "0,0,140", "--modes", "--cables", "lumped", "--segments", "8",
                  "--cutoff-hz", "1.0", "--json", str(out)]) == 0
     d = json.loads(out.read_text())
     m, c = d["modes"], d["cables"]
-    assert d["status"] == "ok" and m["status"] == "ok" and c["segments"] == 6
-    assert c["degrees_of_freedom"] == 6 + 18 * 5
+    assert d["status"] == "ok" and m["status"] == "ok" and c["segments"] == 8
+    assert c["degrees_of_freedom"] == 6 + 18 * 7
     f = np.array(m["frequencies_hz"])
     assert len(f) > 6 and np.all(np.diff(f) >= 0) and f[-1] < 1.0
     assert len(m["kind"]) == len(f) == len(m["cabin_energy_share"])
