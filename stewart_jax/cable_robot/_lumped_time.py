@@ -18,7 +18,9 @@ milliradian motions simulated here these are second-order small (relative size `
 
 Damping: the structural damping is set by one modal damping ratio ζ, ``C = M Φ diag(2 ζ ω_m) Φᵀ
 M`` with the M-orthonormal modes ``Φ`` of the static pose (Rayleigh's classical damping in
-modal form): every mode of the linearised system decays at ζ.
+modal form): every mode of the linearised system decays at ζ. (The modes' rotation coordinates
+are measured from the requested attitude, the simulation's from the lumped equilibrium's, which
+differ by the equilibrium's tilt, ~1e-5 rad: negligible in C.)
 
 Integrator: velocity Verlet inside ``lax.scan`` (second order; symplectic when ζ = 0), the
 damping evaluated at the predicted velocity ``v + a dt``. Stable for ``dt < 2/ω_max``;
