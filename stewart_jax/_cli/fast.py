@@ -14,6 +14,14 @@ vector, tilt, ``G R_C``), ``tensions_n`` (six tensions at the cabin anchors),
 M-normalised shape) and ``cable_string_hz``. The JSON is strict: a number that is not finite
 is written as ``null``. A cabin whose statics are infeasible is reported, with its JSON, before
 any simulation, with exit status 1; a cabin below the reflector's surface is refused (exit 2).
+
+With ``--cables lumped --segments N --modes`` (lumped-mass cables; no time simulation): ``cables``
+→ ``model``, ``segments``, ``degrees_of_freedom``, ``anchor_tension_n``, ``top_tension_n``,
+``cabin_offset_m``/``cabin_offset_rad`` (the lumped equilibrium's offset from the catenary pose),
+``static_residual_n``; ``modes`` → ``frequencies_hz`` (every mode below ``cutoff_hz``, ascending),
+``kind`` (``cabin``/``string``), ``cabin_energy_share``, ``compliance_share`` (per coordinate
+``swing_x`` … ``yaw``, one value per listed mode), ``dominant`` (per coordinate: ``mode``, its
+0-based index among all modes, ``frequency_hz``, ``compliance_share``).
 """
 
 from __future__ import annotations
@@ -62,6 +70,14 @@ def add_fast_parser(subparsers) -> argparse.ArgumentParser:
                    "the focal-surface normal)")
     p.add_argument("--modes", action="store_true",
                    help="add the cabin's natural frequencies and mode shapes on its cables")
+    p.add_argument("--cables", choices=("quasi-static", "lumped"), default="quasi-static",
+                   help="cable model (default quasi-static, Yin et al.'s elastic catenaries); lumped: "
+                   "N lumped-mass segments per cable (MoorDyn's discretisation), with --modes only: "
+                   "statics and every mode of cabin and cables, no time simulation")
+    p.add_argument("--segments", type=int, default=20, metavar="N",
+                   help="segments per cable for --cables lumped (N >= 2, default 20)")
+    p.add_argument("--cutoff-hz", type=float, default=1.5,
+                   help="--cables lumped: list the modes below this frequency in Hz (default 1.5)")
     p.set_defaults(func=run_fast)
     return p
 
@@ -114,6 +130,18 @@ def run_fast(args: argparse.Namespace) -> int:
     from ._common import check_outputs
 
     check_outputs(args, json="--json", plot="--plot")
+    if getattr(args, "cables", "quasi-static") == "lumped":
+        if not args.modes:
+            print("error: --cables lumped computes the statics and modes only; add --modes "
+                  "(the time simulation runs on quasi-static cables)", file=sys.stderr)
+            return 2
+        if args.segments < 2:
+            print(f"error: --segments must be at least 2 (one free node per cable), got {args.segments}",
+                  file=sys.stderr)
+            return 2
+        if not (np.isfinite(args.cutoff_hz) and args.cutoff_hz > 0):
+            print(f"error: --cutoff-hz must be a positive frequency in Hz, got {args.cutoff_hz}", file=sys.stderr)
+            return 2
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
         return 2
@@ -152,6 +180,8 @@ def run_fast(args: argparse.Namespace) -> int:
         if args.json:
             _write_json(args.json, out)
         return 1
+    if getattr(args, "cables", "quasi-static") == "lumped":
+        return _run_lumped(args, params, sol, out)
     R = None if sol.kind == "level" or not float(sol.tilt_rad) else jnp.asarray(sol.R)
     t0 = time.perf_counter()
     res = run_scenario_jit(params, jnp.asarray(args.position, jnp.float64), duration=args.duration,
@@ -216,6 +246,62 @@ def run_fast(args: argparse.Namespace) -> int:
     if args.plot:
         _plot(res, args.plot)
     return 0 if ok else 1
+
+
+def _run_lumped(args, params, sol, out: dict) -> int:
+    """Statics and modes of the cabin on lumped-mass cables (``--cables lumped --modes``)."""
+    import jax.numpy as jnp
+
+    from ..cable_robot._lumped import CABIN_COORDINATES, lumped_modes, modal_summary
+
+    pos = jnp.asarray(args.position, jnp.float64)
+    t0 = time.perf_counter()
+    try:
+        m = lumped_modes(params, pos, args.segments, jnp.asarray(sol.R), sol.statics.static)
+    except ValueError as err:
+        out["status"] = "no_lumped_equilibrium"
+        out["cables"] = {"model": "lumped", "segments": args.segments}
+        print(f"error: {err}", file=sys.stderr)
+        if args.json:
+            _write_json(args.json, out)
+        return 1
+    s = modal_summary(m, args.cutoff_hz)
+    seconds = time.perf_counter() - t0
+    st = m.statics
+    out["cables"] = {
+        "model": "lumped",
+        "segments": args.segments,
+        "degrees_of_freedom": int(m.frequencies_hz.shape[0]),
+        "anchor_tension_n": np.asarray(st.anchor_tension_n).tolist(),
+        "top_tension_n": np.asarray(st.top_tension_n).tolist(),
+        "cabin_offset_m": np.asarray(st.q[:3]).tolist(),
+        "cabin_offset_rad": np.asarray(st.q[3:]).tolist(),
+        "static_residual_n": float(st.residual_n),
+    }
+    out["modes"] = {
+        "status": "ok" if bool(m.ok) and bool(m.stable) else ("unstable" if bool(m.ok) else "failed"),
+        "cutoff_hz": args.cutoff_hz,
+        "frequencies_hz": s.frequencies_hz.tolist(),
+        "kind": s.kind,
+        "cabin_energy_share": s.cabin_energy_share.tolist(),
+        "compliance_share": {c: s.compliance_share[:, k].tolist() for k, c in enumerate(CABIN_COORDINATES)},
+        "dominant": {c: {"mode": i, "frequency_hz": f, "compliance_share": sh}
+                     for c, (i, f, sh) in s.dominant.items()},
+        "string_share": 0.01,
+        "seconds": seconds,
+    }
+    out["status"] = "ok" if out["modes"]["status"] == "ok" else out["modes"]["status"]
+    print(f"FAST cabin on lumped-mass cables at {list(args.position)} m ({sol.kind} attitude), "
+          f"{args.segments} segments per cable, {out['cables']['degrees_of_freedom']} degrees of freedom "
+          f"({seconds:.1f} s incl. compile)")
+    print("cable tensions at the cabin (kN): " + ", ".join(f"{t / 1e3:.1f}" for t in out["cables"]["anchor_tension_n"]))
+    print(f"{len(s.frequencies_hz)} modes below {args.cutoff_hz} Hz ({s.kind.count('string')} string modes)")
+    print(f"{'coordinate':>10} {'mode':>5} {'f (Hz)':>8} {'compliance share':>17}")
+    for c, (i, f, sh) in s.dominant.items():
+        print(f"{c:>10} {i:5d} {f:8.4f} {sh:17.3f}")
+    if args.json:
+        _write_json(args.json, out)
+    return 0 if out["status"] == "ok" else 1
 
 
 def _plot(res, path: str) -> None:

@@ -20,6 +20,10 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   curvature, smallest feasible tilt, maximum least tension).
 - :mod:`._modes` — beyond the paper: stiffness, mass matrix, natural frequencies and mode
   shapes of the cabin on its cables; the cables' own string frequencies.
+- :mod:`._lumped` — beyond the paper: lumped-mass cables (MoorDyn's discretisation), statics
+  of nodes and cabin together, and every mode of the whole system.
+- :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
+  (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
 """
 
 from ._attitude import (
@@ -48,6 +52,18 @@ from ._coupled import (
     matrix_to_quat as matrix_to_quat,
     quat_to_matrix as quat_to_matrix,
     simulate as simulate,
+)
+from ._lumped import (
+    LumpedModes as LumpedModes,
+    LumpedStatics as LumpedStatics,
+    ModalSummary as ModalSummary,
+    lumped_modes as lumped_modes,
+    lumped_statics as lumped_statics,
+    modal_summary as modal_summary,
+)
+from ._lumped_time import (
+    LumpedTrajectory as LumpedTrajectory,
+    simulate_lumped as simulate_lumped,
 )
 from ._modes import (
     CabinModes as CabinModes,
