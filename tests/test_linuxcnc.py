@@ -20,7 +20,14 @@ import pytest
 from stewart_jax._cli import main as cli_main
 from stewart_jax.mechanism import preset, to_linuxcnc
 
-PRESETS = {"rubin_camera": None, "rubin_m2": (-10.0, 10.0), "fast_stewart": (-50.0, 50.0)}
+PRESETS = {"rubin_camera": None, "rubin_m2": (-10.0, 10.0), "fast_stewart": (-50.0, 50.0), "calibrated": None}
+
+
+def _mechanism(name):
+    if name != "calibrated":
+        return preset(name)
+    m = preset("rubin_camera")  # a calibrated geometry: every parameter moved by N(0, 0.5 mm)
+    return m.with_params(m.params + np.random.default_rng(5).normal(0, 0.5, m.n_params))
 
 
 def read_config(ini_text, hal_text):
@@ -79,7 +86,7 @@ def genhexkins_forward(base, platform, joints, start, *, criterion=1e-9, max_err
 def configs():
     out = {}
     for name, limits in PRESETS.items():
-        m = preset(name)
+        m = _mechanism(name)
         out[name] = (m, to_linuxcnc(m, stroke_limits_mm=limits))
     return out
 
