@@ -16,6 +16,7 @@ calibrate the poses with ``lm-batched``, and take the pose noise for the uncerta
 repeated rigid fits at the zero pose (generous: a user measures ten).
 
     python benchmarks/tracker_points.py [--trials 20] [--geometry rubin_m2] [--quick]
+    python benchmarks/tracker_points.py --timing   # seconds against 120, 300 and 600 poses
 """
 
 from __future__ import annotations
@@ -97,13 +98,50 @@ def pooled(rows, key):
     return float(np.mean(np.abs(z) <= 2)), float(np.sqrt(np.mean(z**2)))
 
 
+def timing(geometry: str, sizes=(120, 300, 600), repeats: int = 3) -> None:
+    """Seconds per point-based calibration against the number of poses (compilation apart)."""
+    from stewart_jax.calibration import random_poses
+
+    nominal = preset(geometry)
+    targets = default_targets(nominal)
+    half = reachable_travel(nominal)
+    true = perturbed(nominal, jax.random.key(1), 0.5)
+    rows = []
+    for m in sizes:
+        sim = simulate_points(jax.random.key(m), nominal, true, targets, random_poses(jax.random.key(2), m, half=half),
+                              visible=1.0)
+        t0 = time.perf_counter()
+        cal = calibrate_points(sim.data, targets, nominal)
+        first = time.perf_counter() - t0
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            cal = calibrate_points(sim.data, targets, nominal)
+            times.append(time.perf_counter() - t0)
+        rows.append({"poses": m, "points": int(len(sim.data.points)), "first_call_seconds": first,
+                     "median_seconds": float(np.median(times)), "solver_evaluations": cal.n_steps,
+                     "status": cal.status})
+        print(rows[-1], flush=True)
+    md = [f"# Tracker points: seconds per point-based calibration ({geometry}, every target seen)", "",
+          "| poses | points | s (median of 3, compiled) | first call (with compilation) | LM evaluations |",
+          "|---|---|---|---|---|"]
+    md += [f"| {r['poses']} | {r['points']} | {r['median_seconds']:.2f} | {r['first_call_seconds']:.1f} | "
+           f"{r['solver_evaluations']} |" for r in rows]
+    write_results("tracker_points_timing", {"rows": rows}, "\n".join(md))
+    print("\n".join(md))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--geometry", default="rubin_m2")
     ap.add_argument("--visible", type=float, default=0.6)
     ap.add_argument("--quick", action="store_true", help="3 trials, results named *_quick")
+    ap.add_argument("--timing", action="store_true", help="only the seconds against 120, 300 and 600 poses")
     args = ap.parse_args()
+    if args.timing:
+        timing(args.geometry)
+        return
     trials = 3 if args.quick else args.trials
     nominal = preset(args.geometry)
     n = nominal.n_params

@@ -38,7 +38,6 @@ from __future__ import annotations
 import csv
 import json
 import os
-from functools import partial
 from typing import NamedTuple
 
 import equinox as eqx
@@ -459,26 +458,45 @@ class PointCalibration(NamedTuple):
     residuals_um: np.ndarray
 
 
+_PAD_POINTS, _PAD_POSES = 64, 32
+
+
+def _padded(x: np.ndarray, size: int, fill: float = 0.0) -> np.ndarray:
+    pad = np.full((size - len(x),) + x.shape[1:], fill, dtype=x.dtype)
+    return np.concatenate([x, pad])
+
+
 def _problem(data, targets, nominal, range_um, across_um_per_m, starts) -> _PointProblem:
+    """The problem, its points padded to a multiple of 64 and its poses to a multiple of 32.
+
+    NOTE: padding keeps the compiled solve's shapes the same for data sets of similar size (a
+    new shape recompiles the whole LM). A padded point has a zero whitening matrix, so its
+    residual and Jacobian rows are zero; a padded pose has zero readings, starts at the zero pose
+    and carries no point. :func:`calibrate_points` drops both before any statistic."""
     rot0, t0, poses, _ = starts
+    n_pts = -(-len(data.points) // _PAD_POINTS) * _PAD_POINTS
+    m = -(-data.n_poses // _PAD_POSES) * _PAD_POSES
     f = jnp.asarray
     return _PointProblem(
-        strokes=f(data.strokes), start=f(poses), pose_index=f(data.pose_index),
-        body=f(targets.platform[data.target_index]), points=f(data.points),
-        w_points=f(tracker_whitening(data.points, range_um, across_um_per_m)),
+        strokes=f(_padded(data.strokes, m)), start=f(_padded(poses, m)),
+        pose_index=f(_padded(data.pose_index, n_pts)),
+        body=f(_padded(targets.platform[data.target_index], n_pts)), points=f(_padded(data.points, n_pts)),
+        w_points=f(_padded(tracker_whitening(data.points, range_um, across_um_per_m), n_pts)),
         ref_body=f(targets.base[data.reference_index]), references=f(data.references),
         w_refs=f(tracker_whitening(data.references, range_um, across_um_per_m)),
         rot0=f(rot0), t0=f(t0))
 
 
-@partial(eqx.filter_jit)
+@eqx.filter_jit
 def _solve(problem: _PointProblem, nominal: AbstractMechanism, y0, max_steps: int):
     from ..optimise._batched_lm import BatchedLevenbergMarquardt
 
     solver = BatchedLevenbergMarquardt(max_steps=max_steps)
     res = solver.run(lambda y, p: p.residuals(y, nominal), y0, args=problem,
                      jac=lambda y, p: p.jacobian(y, nominal))
-    return res, problem.jacobian(res.params, nominal)
+    pts, _, poses = problem.predicted(nominal, res.params)
+    rot, t = problem.registration(res.params)
+    return res, problem.jacobian(res.params, nominal), problem.residuals(res.params, nominal), pts, poses, rot, t
 
 
 def calibrate_points(
@@ -506,20 +524,18 @@ def calibrate_points(
     starts = start_values(data, targets, nominal)
     problem = _problem(data, targets, nominal, range_um, across_um_per_m, starts)
     y0 = jnp.concatenate([nominal.params, jnp.zeros(6)])
-    res, jac = _solve(problem, nominal, y0, max_steps)
+    res, jac, r, pts, poses, rot, t = _solve(problem, nominal, y0, max_steps)
     y = np.asarray(res.params)
-    status = status_name(res.status)
-    pts, _, poses = problem.predicted(nominal, jnp.asarray(y))
-    rot, t = problem.registration(jnp.asarray(y))
-    r = np.asarray(problem.residuals(jnp.asarray(y), nominal))
-    chi2 = float(r @ r)
+    n_pts, n_pad = len(data.points), problem.points.shape[0]
+    rows = np.concatenate([np.arange(3 * n_pts), 3 * n_pad + np.arange(3 * len(data.references))])
+    r = np.asarray(r)[rows]
     names = (*nominal.param_names, "reg_x", "reg_y", "reg_z", "reg_rx", "reg_ry", "reg_rz")
-    assessment = _assess(np.asarray(jac), r, names)
+    assessment = _assess(np.asarray(jac)[rows], r, names)
     return PointCalibration(
         mechanism=nominal.with_params(jnp.asarray(y[:n])), params=y[:n], rotation=np.asarray(rot),
-        translation=np.asarray(t), poses=np.asarray(poses), start_poses=starts[2], fitted=starts[3],
-        status=status, n_steps=int(res.n_evaluations), chi2=chi2,
-        assessment=assessment, residuals_um=(data.points - np.asarray(pts)) / UM)
+        translation=np.asarray(t), poses=np.asarray(poses)[: data.n_poses], start_poses=starts[2],
+        fitted=starts[3], status=status_name(res.status), n_steps=int(res.n_evaluations), chi2=float(r @ r),
+        assessment=assessment, residuals_um=(data.points - np.asarray(pts)[:n_pts]) / UM)
 
 
 def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...]) -> CalibrationAssessment:
