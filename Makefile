@@ -54,6 +54,8 @@ bench: bench-deps
 	$(BIN)/python benchmarks/discrepancy.py
 	$(BIN)/python benchmarks/identifiability.py
 	$(BIN)/python benchmarks/sharding.py
+	$(BIN)/python benchmarks/tracker_points.py
+	$(BIN)/python benchmarks/tracker_points.py --timing
 
 clean:
 	rm -rf $(VENV) build site *.egg-info

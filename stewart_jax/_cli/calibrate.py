@@ -13,6 +13,13 @@ from ._common import check_outputs, file_backend, load_nominal, noise_args, para
 
 
 def run(args: argparse.Namespace) -> int:
+    from . import _points
+
+    if args.targets is not None or _points.is_points_file(args.file):
+        return _points.run_calibrate(args)
+    if args.tracker_sigma_um is not None:
+        raise ValueError("--tracker-sigma-um is for a points file (with --targets); a pose file takes --sigma-um "
+                         "and --sigma-arcsec")
     check_outputs(args, json="--json", out_geometry="--out-geometry", plot="--plot", report="--report")
     for name, value, least in (("--max-evaluations", args.max_evaluations, 1), ("--max-steps", args.max_steps, 1)):
         if value is not None and value < least:
@@ -195,5 +202,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "identifiability, before/after pose errors at calibration and held-out poses, parameters")
     p.add_argument("--holdout", type=float, help="fraction of the poses held out for the report's check "
                    "(default 0.2 with --report)")
+    p.add_argument("--targets", metavar="T.json", help="a points file's target coordinates (mm): "
+                   '{"platform_targets": {NAME: [x, y, z]}, "base_references": {NAME: [x, y, z]}}')
+    p.add_argument("--tracker-sigma-um", metavar="RANGE,ACROSS_PER_M", type=_points_sigma,
+                   help="a points file's tracker noise: σ along the line of sight (µm) and across it (µm per m "
+                        "of distance); default 5,2.5")
     p.set_defaults(func=run)
     return p
+
+
+def _points_sigma(text):
+    from ._points import tracker_sigma_arg
+
+    return tracker_sigma_arg(text)

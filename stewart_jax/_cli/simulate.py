@@ -11,6 +11,14 @@ from ._common import check_outputs, geometry_args, noise_args, nominal_and_true
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.points:
+        from ._points import run_simulate
+
+        return run_simulate(args)
+    if isinstance(args.tracker_sigma_um, tuple):
+        raise ValueError("--tracker-sigma-um RANGE,ACROSS_PER_M is the noise of --points; --tracker takes one σ")
+    if args.tracker_sigma_um is None:
+        args.tracker_sigma_um = 3.0
     import jax
 
     from ..calibration._csv import write_csv
@@ -43,6 +51,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _tracker_sigma(text):
+    from ._points import tracker_sigma_arg
+
+    return tracker_sigma_arg(text)
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "simulate", help="write simulated measured data of any mechanism as CSV (poses in its travel)"
@@ -52,7 +66,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     noise_args(p)
     p.add_argument("--tracker", action="store_true", help="measure poses with the 3-ball laser tracker")
-    p.add_argument("--tracker-sigma-um", type=float, default=3.0, help="tracker σ per coordinate (µm)")
+    p.add_argument("--tracker-sigma-um", type=_tracker_sigma, default=None,
+                   help="--tracker: σ per coordinate (µm, default 3); --points: RANGE,ACROSS_PER_M, σ along the line "
+                        "of sight (µm) and across it (µm per m of distance), default 5,2.5")
+    p.add_argument("--points", action="store_true", help="write a laser tracker's target points (a points file)")
+    p.add_argument("--targets", metavar="T.json", help="--points: the targets' nominal coordinates")
+    p.add_argument("--default-targets", action="store_true",
+                   help="--points: write a default target set to --targets instead of reading it")
+    p.add_argument("--visible", type=float, default=0.7,
+                   help="--points: probability that a platform target is seen at a pose (at least one is)")
     geometry_args(p, true=True)
     p.add_argument("--out-true", help="also write the true geometry (JSON), e.g. to check a calibration")
     p.set_defaults(func=run)

@@ -46,6 +46,17 @@ from ._methods import (
     method_label as method_label,
     register_method as register_method,
 )
+from ._points import (
+    PointCalibration as PointCalibration,
+    PointData as PointData,
+    TrackerTargets as TrackerTargets,
+    calibrate_points as calibrate_points,
+    read_points_csv as read_points_csv,
+    read_targets as read_targets,
+    simulate_points as simulate_points,
+    tracker_whitening as tracker_whitening,
+    write_points_csv as write_points_csv,
+)
 from ._problem import (
     CalibrationData as CalibrationData,
     CalibrationProblem as CalibrationProblem,

@@ -26,6 +26,7 @@ from ._kinematics import (
     solve_inverse_kinematics as solve_inverse_kinematics,
     upper_joints_in_base as upper_joints_in_base,
 )
+from ._linuxcnc import LinuxCNCConfig as LinuxCNCConfig, to_linuxcnc as to_linuxcnc
 from ._pss import (
     N_PARAMS as N_PARAMS,
     Geometry as Geometry,

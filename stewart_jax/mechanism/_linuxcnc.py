@@ -1,0 +1,248 @@
+"""A LinuxCNC machine configuration (INI + HAL) for the ``genhexkins`` kinematics module.
+
+``genhexkins`` (LinuxCNC, generalised hexapod kinematics, after R. Brian Register) solves the
+forward kinematics by Newton–Raphson iteration started from the last pose, and at start-up from
+``[TRAJ]HOME``; its joints are strut lengths and its world coordinates ``X Y Z`` the platform
+frame's origin in the base frame, ``A B C`` roll, pitch and yaw in degrees with
+``R = Rz(C)·Ry(B)·Rx(A)``. For a :class:`~stewart_jax.mechanism.UPSMechanism` that is the library's
+pose shifted by the pivot: ``X Y Z = d + v0``. The configuration written here therefore
+
+- puts ``[TRAJ]HOME`` at the pivot pose ``v0, 0, 0, 0`` (the iteration fails from LinuxCNC's default
+  of zero, which is hundreds of millimetres from any solution on a telescope hexapod);
+- gives each joint its strut length at that pose as ``HOME`` and ``lengths0 + stroke limits`` as
+  ``MIN_LIMIT``/``MAX_LIMIT``;
+- bounds each axis by the mechanism's workspace along that axis from the pivot pose
+  (:func:`~stewart_jax.mechanism.max_travel`), in the controller's shifted coordinates;
+- sets millimetres and degrees, and holds ``tool-offset``, ``spindle-offset`` and ``screw-lead`` at 0:
+  ``genhexkins`` adds the first two to the ``z`` of every platform and base joint, which moves the
+  rotation centre off the calibrated pivot, and the third corrects for screw rotation that a
+  calibrated 6-UPS geometry does not model.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ._abstract import AbstractMechanism
+from ._genhexkins import to_genhexkins
+from ._ups import UPSMechanism
+
+# Placeholders the geometry cannot know; the INI says so next to each.
+_JOINT_MAX_VELOCITY_MM_S = 1.0
+_JOINT_MAX_ACCELERATION_MM_S2 = 10.0
+_ANGULAR_MAX_VELOCITY_DEG_S = 0.5
+_MAX_ANGLE_RAD = 0.5
+
+
+class LinuxCNCConfig(NamedTuple):
+    """The two files of a LinuxCNC ``genhexkins`` machine configuration.
+
+    - ``ini``: the INI file's text (``[KINS]``, ``[TRAJ]``, ``[JOINT_0..5]``, ``[AXIS_X..C]``, …).
+    - ``hal``: the HAL file's text (``loadrt``, the 36 ``setp genhexkins.*`` joint coordinates,
+      the offsets held at 0, and a simulated joint loop to replace with the machine's drives).
+    - ``home``: ``Float[ndarray, "6"]``, ``[TRAJ]HOME`` (mm, degrees): ``v0`` and zero angles.
+    - ``joint_home_mm``: ``Float[ndarray, "6"]``, the strut lengths at ``home``.
+    - ``joint_limits_mm``: ``Float[ndarray, "6 2"]``, ``lengths0`` + the stroke limits.
+    - ``axis_limits``: ``Float[ndarray, "6 2"]``, min and max of X Y Z (mm) and A B C (degrees).
+    """
+
+    ini: str
+    hal: str
+    home: np.ndarray
+    joint_home_mm: np.ndarray
+    joint_limits_mm: np.ndarray
+    axis_limits: np.ndarray
+
+
+def to_linuxcnc(
+    mechanism: AbstractMechanism,
+    *,
+    stroke_limits_mm: tuple[float, float] | None = None,
+    name: str = "hexapod",
+) -> LinuxCNCConfig:
+    """A LinuxCNC configuration that starts ``genhexkins`` on this 6-UPS strut hexapod.
+
+    ``stroke_limits_mm`` (``(min, max)`` of the reading, mm) is used when the mechanism has no
+    ``stroke_limits`` of its own; with neither, a ``ValueError`` says how to give them (joint
+    limits cannot be guessed). ``name`` names the HAL file (``NAME.hal``) that the INI loads.
+    Raises ``TypeError`` for a family other than 6-UPS, as :func:`to_genhexkins` does.
+    """
+    from ._workspace import max_travel
+
+    hal_setp = to_genhexkins(mechanism)
+    assert isinstance(mechanism, UPSMechanism)
+    if mechanism.stroke_limits is None:
+        if stroke_limits_mm is None:
+            raise ValueError(
+                "the geometry has no stroke_limits, and LinuxCNC's joint limits are lengths0 + the stroke "
+                "limits: add \"stroke_limits\": [min, max] (mm of reading) to the geometry file, or give them "
+                "(--stroke-limits-mm MIN,MAX)"
+            )
+        lo, hi = (float(x) for x in stroke_limits_mm)
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < 0.0 < hi):
+            raise ValueError(f"stroke limits must be finite with min < 0 < max (mm), got {stroke_limits_mm}")
+        mechanism = UPSMechanism(
+            mechanism.base,
+            mechanism.platform,
+            mechanism.v0,
+            mechanism.lengths0,
+            stroke_limits=(lo, hi),
+            joint_angle_limit=mechanism.joint_angle_limit,
+            travel=mechanism.travel,
+        )
+    if not name or any(c in name for c in "/\\ \t\n[]"):
+        raise ValueError(f"the configuration name must be a plain file stem, got {name!r}")
+    base = np.asarray(mechanism.base, dtype=np.float64)
+    platform = np.asarray(mechanism.platform, dtype=np.float64)
+    v0 = np.asarray(mechanism.v0, dtype=np.float64)
+    lengths0 = np.asarray(mechanism.lengths0, dtype=np.float64)
+    home = np.concatenate([v0, np.zeros(3)])
+    joint_home = np.linalg.norm(platform + v0 - base, axis=1)
+    limits = np.asarray(mechanism.stroke_limits, dtype=np.float64)
+    joint_limits = lengths0[:, None] + limits
+    if np.any(joint_home <= joint_limits[:, 0]) or np.any(joint_home >= joint_limits[:, 1]):
+        raise ValueError(
+            "the pivot pose is outside the stroke limits (a strut's home length is not within lengths0 + "
+            f"stroke_limits): home {joint_home.tolist()}, limits {joint_limits.tolist()}"
+        )
+    # NOTE: the search along each axis stops at 10 strokes' span (mm) and 0.5 rad; an extent that
+    # reaches that cap is not a limit of the struts, and the INI says so.
+    cap = np.array([10.0 * float(np.max(limits[:, 1] - limits[:, 0]))] * 3 + [_MAX_ANGLE_RAD] * 3)
+    travel = max_travel(mechanism, max_extent_mm=float(cap[0]), max_extent_rad=_MAX_ANGLE_RAD)
+    plus, minus = np.asarray(travel.plus), np.asarray(travel.minus)
+    capped = (plus >= cap * (1 - 1e-9)) | (minus >= cap * (1 - 1e-9))
+    axis_limits = np.stack([home - minus, home + plus], axis=1)
+    axis_limits[3:] = np.degrees(np.stack([-minus[3:], plus[3:]], axis=1))
+    return LinuxCNCConfig(
+        ini=_ini(name, home, joint_home, joint_limits, axis_limits, capped),
+        hal=_hal(hal_setp),
+        home=home,
+        joint_home_mm=joint_home,
+        joint_limits_mm=joint_limits,
+        axis_limits=axis_limits,
+    )
+
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def _ini(name, home, joint_home, joint_limits, axis_limits, capped) -> str:
+    lines = [
+        "# LinuxCNC configuration of a 6-UPS strut hexapod for genhexkins, written by stewart_jax.",
+        "# Units: mm and degrees. World coordinates are the controller's, shifted from the library's pose:",
+        "#   X Y Z = d + v0 (the platform frame's origin in the base frame), A B C = phi theta psi in degrees.",
+        "# Command X Y Z = v0 (the [TRAJ]HOME below) to put the platform at the library's zero pose.",
+        "",
+        "[EMC]",
+        "VERSION = 1.1",
+        f"MACHINE = {name} (genhexkins, stewart_jax)",
+        "",
+        "[DISPLAY]",
+        "DISPLAY = axis",
+        "POSITION_OFFSET = RELATIVE",
+        "POSITION_FEEDBACK = ACTUAL",
+        "",
+        "[RS274NGC]",
+        "# G21: programs in mm; G49: no tool length offset (it would move the pivot, see the HAL file)",
+        "RS274NGC_STARTUP_CODE = G21 G49",
+        f"PARAMETER_FILE = {name}.var",
+        "",
+        "[EMCMOT]",
+        "EMCMOT = motmod",
+        "COMM_TIMEOUT = 1.0",
+        "SERVO_PERIOD = 1000000",
+        "",
+        "[TASK]",
+        "TASK = milltask",
+        "CYCLE_TIME = 0.010",
+        "",
+        "[HAL]",
+        f"HALFILE = {name}.hal",
+        "",
+        "[EMCIO]",
+        f"TOOL_TABLE = {name}.tbl",
+        "",
+        "[KINS]",
+        "KINEMATICS = genhexkins",
+        "JOINTS = 6",
+        "",
+        "[TRAJ]",
+        "COORDINATES = X Y Z A B C",
+        "LINEAR_UNITS = mm",
+        "ANGULAR_UNITS = degree",
+        "# genhexkins starts its forward-kinematics iteration here: the pivot pose (v0, zero angles).",
+        "HOME = " + " ".join(_num(x) for x in home),
+        "NO_FORCE_HOMING = 1",
+        "# velocities and accelerations are placeholders: set them from the actuators' ratings",
+        f"DEFAULT_LINEAR_VELOCITY = {_JOINT_MAX_VELOCITY_MM_S / 2}",
+        f"MAX_LINEAR_VELOCITY = {_JOINT_MAX_VELOCITY_MM_S}",
+        f"DEFAULT_ANGULAR_VELOCITY = {_ANGULAR_MAX_VELOCITY_DEG_S / 2}",
+        f"MAX_ANGULAR_VELOCITY = {_ANGULAR_MAX_VELOCITY_DEG_S}",
+        "",
+    ]
+    for n in range(6):
+        lines += [
+            f"[JOINT_{n}]",
+            f"# strut {n + 1}: joint value = strut length (mm) = lengths0 + reading",
+            "TYPE = LINEAR",
+            f"MAX_VELOCITY = {_JOINT_MAX_VELOCITY_MM_S}",
+            f"MAX_ACCELERATION = {_JOINT_MAX_ACCELERATION_MM_S2}",
+            "# lengths0 + the stroke limits",
+            f"MIN_LIMIT = {_num(joint_limits[n, 0])}",
+            f"MAX_LIMIT = {_num(joint_limits[n, 1])}",
+            "# the strut length at [TRAJ]HOME; HOME_OFFSET assumes the home switch is there",
+            f"HOME = {_num(joint_home[n])}",
+            f"HOME_OFFSET = {_num(joint_home[n])}",
+            "HOME_SEQUENCE = 0",
+            "",
+        ]
+    for k, axis in enumerate("XYZABC"):
+        unit = "mm" if k < 3 else "degrees"
+        lines += [
+            f"[AXIS_{axis}]",
+            f"# the workspace along {axis} from the pivot pose, the other five held there ({unit})"
+            + ("; the search's cap, not a strut limit: the joint limits bound it" if capped[k] else ""),
+            f"MIN_LIMIT = {_num(axis_limits[k, 0])}",
+            f"MAX_LIMIT = {_num(axis_limits[k, 1])}",
+            f"MAX_VELOCITY = {_JOINT_MAX_VELOCITY_MM_S if k < 3 else _ANGULAR_MAX_VELOCITY_DEG_S}",
+            f"MAX_ACCELERATION = {_JOINT_MAX_ACCELERATION_MM_S2}",
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def _hal(setp: str) -> str:
+    lines = [
+        "# HAL file of a 6-UPS strut hexapod for genhexkins, written by stewart_jax (mm).",
+        "loadrt [KINS]KINEMATICS",
+        "loadrt [EMCMOT]EMCMOT servo_period_nsec=[EMCMOT]SERVO_PERIOD num_joints=[KINS]JOINTS",
+        "addf motion-command-handler servo-thread",
+        "addf motion-controller servo-thread",
+        "",
+        setp.rstrip("\n"),
+        "",
+        "# Held at 0. genhexkins adds tool-offset and spindle-offset to the z of every base and platform",
+        "# joint, which moves the rotation centre off the calibrated pivot (a G43 offset of 100 mm gives",
+        "# 0.1 mm of strut error at A = 0.1 degree); do not connect tool-offset to motion.tooloffset.z.",
+        "# screw-lead corrects strut lengths for screw rotation, which the calibrated geometry does not model.",
+        "setp genhexkins.tool-offset 0",
+        "setp genhexkins.spindle-offset 0",
+        "setp genhexkins.screw-lead 0",
+        "",
+        "# A simulated joint loop (commanded = measured strut length). Replace these six nets with the",
+        "# machine's drives: each joint's feedback is lengths0 + that strut's reading, in mm.",
+    ]
+    for n in range(6):
+        lines.append(f"net j{n}-pos joint.{n}.motor-pos-cmd => joint.{n}.motor-pos-fb")
+    lines += [
+        "",
+        "# A machine with no tool changer: keep the tool-prepare handshake closed.",
+        "net tool-prep-loop iocontrol.0.tool-prepare => iocontrol.0.tool-prepared",
+        "net tool-change-loop iocontrol.0.tool-change => iocontrol.0.tool-changed",
+        "net estop-loop iocontrol.0.user-enable-out => iocontrol.0.emc-enable-in",
+        "",
+    ]
+    return "\n".join(lines)
