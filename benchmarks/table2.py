@@ -37,7 +37,7 @@ def convergence_plot(result: dict, path: str) -> None:
                  for m in CONVERGENCE_METHODS if METHOD_LABELS[m] in result["rows"]}
     reference = {f"{label}: median final S": result["rows"][label]["cost_median"]
                  for label in ("LM (optimistix)", "VSA-SMCS+LM") if label in result["rows"]}
-    title = f"Convergence on the seed-000 protocol ({result['plan']}, {result['n_trials']} seeds)"
+    title = f"Convergence on the Wang et al. 2018 protocol ({result['plan']}, {result['n_trials']} seeds)"
     plotting.show(plotting.plot_convergence(histories, reference=reference, title=title), path)
 
 

@@ -154,5 +154,5 @@ hist = {lab: study["rows"][lab]["history"] for lab in ("CS", "SMCS", "VSA-SMCS")
 ref = {f"{lab}: median final S": study["rows"][lab]["cost_median"]
        for lab in ("LM (optimistix)", "VSA-SMCS+LM") if lab in study["rows"]}
 fig = plotting.plot_convergence(hist, reference=ref,
-                                title=f"seed-000 protocol, 8 poses, {N_TRIALS} trials, budget {BUDGET}")
+                                title=f"Wang et al. 2018 protocol, 8 poses, {N_TRIALS} trials, budget {BUDGET}")
 plotting.show(fig, figure_path("01_convergence.png"))

@@ -82,9 +82,9 @@ class CuckooSearch(AbstractPopulationSolver):
     - ``alpha``: Lévy step scale; 0.01 (Yang & Deb's code: "0.01 … to avoid the flights
       becoming too aggressive").
     - ``beta``: Lévy exponent; 1.5 (Yang & Deb; Wang et al. 2018, eq. 10).
-    - ``epsilon``: stop when the best value falls below it; 0.0 by default (run the whole
-      budget — a fixed-budget comparison is what the study needs; set it to the expected
-      noise floor to stop early).
+    - ``target``: stop once the best value is at or below it (any real value); ``None`` by
+      default (run the whole budget — a fixed-budget comparison is what the study needs; set it
+      to the expected noise floor to stop early).
     - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status
       (:class:`~stewart_jax.optimise.AbstractPopulationSolver`).
     """
@@ -93,7 +93,7 @@ class CuckooSearch(AbstractPopulationSolver):
     pa: float = 0.25
     alpha: float = 0.01
     beta: float = BETA
-    epsilon: float = 0.0
+    target: float | None = None
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 

@@ -31,7 +31,7 @@ class DifferentialEvolution(AbstractPopulationSolver):
       (10⁴–10⁵ evaluations in 36 dimensions) that would leave only tens of generations.
     - ``mutation`` (F): 0.5; ``crossover`` (CR): 0.9 — Storn & Price's recommended start
       ("F = 0.5 … CR = 0.1, or 0.9 … for a quick convergence").
-    - ``epsilon``, ``stall_generations``, ``stall_rtol``: as for every population method.
+    - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
     Evaluations: ``n_nests`` at init and per generation.
     """
@@ -39,7 +39,7 @@ class DifferentialEvolution(AbstractPopulationSolver):
     n_nests: int = 37
     mutation: float = 0.5
     crossover: float = 0.9
-    epsilon: float = 0.0
+    target: float | None = None
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 

@@ -1,12 +1,18 @@
 """One driver for every iterative optimiser: ``init``/``step``/``terminate`` in ``lax.scan``.
 
 The design follows optimistix (an immutable solver object holding hyper-parameters only,
-a separate state pytree, ``init``/``step``/``terminate``) and evosax (population steps
-vmapped over nests, a fixed generation budget in ``lax.scan``). The scan length is fixed
-by the evaluation budget, so that a batch of trials compiles once; once a trial has
-terminated (``S(u_best) < ε``) or the next step could overrun the budget, its state is
-frozen (``lax.cond``; under ``vmap`` JAX evaluates both branches and selects, so a frozen
-trial still costs time but its state, history and evaluation count stay put).
+a separate state pytree, ``init``/``step``/``terminate → (bool, RESULTS)``) and evosax
+(population steps vmapped over nests, a fixed generation budget in ``lax.scan``). The scan
+length is fixed by the evaluation budget, so that a batch of trials compiles once; once a trial
+has terminated (its solver's ``terminate`` holds: the caller's ``target`` reached, or the
+solver's own convergence test) or the next step could overrun the budget, its state is frozen
+(``lax.cond``; under ``vmap`` JAX evaluates both branches and selects, so a frozen trial still
+costs time but its state, history and evaluation count stay put).
+
+Stopping is generic: no objective value ends a run unless the caller asks for it with a
+``target`` (any real number, negative included). A run ends on its budget, or on a convergence
+test the solver states (CMA-ES's step-size collapse, Nelder–Mead's simplex size), and the
+status says which (:class:`~stewart_jax.optimise.RESULTS`).
 
 Evaluation counting: ``n_evals`` counts every objective call that the jitted code of one
 trial makes, including calls whose value a branch-free (vmapped) step computes and then
@@ -14,7 +20,8 @@ discards. A sequential implementation of the same algorithm could make fewer.
 
 The objective is any ``fn(y, args) -> scalar`` over a box of any pytree structure (raveled to
 one vector inside); NaN values are read as +inf before any comparison (:func:`nan_to_inf`), so
-that a failed evaluation can never become the best.
+that a failed evaluation can never become the best. The contract — bounds finite and ordered,
+a scalar objective — is checked before anything is traced.
 
 Writing a new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`),
 give it its hyper-parameters as fields (validated in ``__check_init__``), implement ``step``
@@ -45,7 +52,7 @@ def nan_to_inf(fn):
     """``fn`` with NaN values replaced by +inf (and the value cast to a scalar array)."""
 
     def wrapped(x):
-        f = jnp.asarray(fn(x))
+        f = jnp.reshape(jnp.asarray(fn(x)), ())
         return jnp.where(jnp.isnan(f), jnp.inf, f)
 
     return wrapped
@@ -128,12 +135,14 @@ class AbstractSolver(eqx.Module):
         """One generation (between ``min`` and ``max`` of :meth:`step_evaluations` calls)."""
 
     @abc.abstractmethod
-    def terminate(self, state) -> Bool[Array, ""]:
-        """Converged (e.g. ``S(u_best) < ε``): the driver freezes the state from here on."""
+    def terminate(self, state) -> tuple[Bool[Array, ""], RESULTS]:
+        """Whether the run is over, and why (a :class:`RESULTS` item: ``target_reached``,
+        ``successful`` for the solver's own convergence test, ``stalled``): the driver freezes
+        the state from here on."""
 
     def converged(self, history_cost, history_evaluations) -> Bool[Array, ""]:
-        """A convergence test on the run's history, evaluated once at the end for the status
-        (default: none beyond :meth:`terminate`)."""
+        """A no-progress test on the run's history, evaluated once at the end: where it holds and
+        :meth:`terminate` does not, the status is ``stalled`` (default: never)."""
         del history_cost, history_evaluations
         return jnp.asarray(False)
 
@@ -162,26 +171,28 @@ def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
 
 
 class AbstractPopulationSolver(AbstractSolver):
-    """A population method (CS, SMCS, VSA-SMCS): ``n_nests`` nests uniform in Ω at init.
+    """A population method (CS, SMCS, VSA-SMCS, DE, PSO, CMA-ES): ``n_nests`` nests uniform in Ω
+    at init.
 
-    Two convergence tests, both reported as ``RESULTS.successful``:
-
-    - ``epsilon``: the best value fell below it; the run stops there (the paper's ``ε``).
-      0 by default, so a default run spends its whole budget (fixed-budget comparisons).
+    - ``target``: the run stops once the best value is at or below it (status
+      ``target_reached``); any real number, negative included. ``None`` (default): no value
+      stops the run, which spends its budget (fixed-budget comparisons) or ends on the solver's
+      own convergence test. The paper's ``ε`` of Wang et al. (2018) is such a target.
     - ``stall_generations``, ``stall_rtol``: over the last ``stall_generations`` generations
-      the best value improved by at most ``stall_rtol·|best|`` — the search has settled. This
-      is evaluated once, at the end, and never shortens a run. Defaults 100 and 1e-6.
+      the best value improved by at most ``stall_rtol·|best|`` — the search has settled (status
+      ``stalled``). This is evaluated once, at the end, and never shortens a run. Defaults 100
+      and 1e-6.
     """
 
     n_nests: eqx.AbstractVar[int]
-    epsilon: eqx.AbstractVar[float]
+    target: eqx.AbstractVar[float | None]
     stall_generations: eqx.AbstractVar[int]
     stall_rtol: eqx.AbstractVar[float]
 
     def __check_init__(self):
         _check(self, "n_nests", self.n_nests >= 2, "at least 2")
         _check_shared(self)
-        _check(self, "epsilon", self.epsilon >= 0, ">= 0")
+        _check_target(self)
         _check(self, "stall_generations", self.stall_generations >= 1, ">= 1")
         _check(self, "stall_rtol", self.stall_rtol >= 0, ">= 0")
 
@@ -190,7 +201,7 @@ class AbstractPopulationSolver(AbstractSolver):
         return init_population(fn, lower, upper, key, self.n_nests)
 
     def terminate(self, state):
-        return state.best_f < self.epsilon
+        return target_reached(self, state), RESULTS.target_reached
 
     def converged(self, history_cost, history_evaluations):
         # The last step that did work is the first index holding the final evaluation count
@@ -202,6 +213,21 @@ class AbstractPopulationSolver(AbstractSolver):
 
     def init_evaluations(self, n_dim):
         return self.n_nests
+
+
+def target_reached(solver, state) -> Bool[Array, ""]:
+    """``best_f ≤ solver.target`` (never, where the solver's ``target`` is ``None``)."""
+    if solver.target is None:
+        return jnp.asarray(False)
+    return state.best_f <= solver.target
+
+
+def _check_target(solver) -> None:
+    t = solver.target
+    if t is None or isinstance(t, jax.core.Tracer):
+        return
+    if not np.all(~np.isnan(np.asarray(t, dtype=np.float64))):
+        raise ValueError(f"{type(solver).__name__}.target must be None or a real number, got {t!r}")
 
 
 def holds(ok) -> bool:
@@ -279,6 +305,7 @@ def minimise(
     upper_flat, _ = flat(upper)
     if jax.tree.structure(lower) != jax.tree.structure(upper) or lower_flat.shape != upper_flat.shape:
         raise ValueError("lower and upper must have the same pytree structure and shapes")
+    check_box(lower_flat, upper_flat)
     y0_flat = None
     if y0 is not None:
         y0_flat, _ = flat(y0)
@@ -290,17 +317,97 @@ def minimise(
     def flat_fn(x):
         return fn(unravel(x), args)
 
+    check_scalar_objective(flat_fn, lower_flat)
+
     result, state = _minimise_flat(flat_fn, solver, lower_flat, upper_flat, y0_flat, key, int(max_evaluations))
     result = result._replace(params=unravel(result.params))
     return (result, state) if return_state else result
 
 
+def check_box(lower: Array, upper: Array) -> None:
+    """Raise, naming the first offending coordinate, unless every bound is finite and
+    ``lower < upper`` (skipped for traced bounds, which cannot be read before tracing)."""
+    if isinstance(lower, jax.core.Tracer) or isinstance(upper, jax.core.Tracer):
+        return
+    lo, hi = np.asarray(lower), np.asarray(upper)
+    for name, v in (("lower", lo), ("upper", hi)):
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise ValueError(f"the box must be finite: {name}[{bad[0]}] = {v[bad[0]]} ({bad.size} coordinate(s) "
+                             "not finite); a population method samples the box, so every bound must be a number")
+    bad = np.flatnonzero(~(lo < hi))
+    if bad.size:
+        i = bad[0]
+        raise ValueError(f"the box is empty or flat: lower[{i}] = {lo[i]} is not below upper[{i}] = {hi[i]} "
+                         f"({bad.size} coordinate(s)); every lower bound must be below its upper bound")
+
+
+def check_scalar_objective(fn, x: Array) -> None:
+    """Raise unless ``fn(x)`` returns one real number (checked on shapes only, before tracing)."""
+    out = jax.eval_shape(fn, x)
+    shapes = [leaf.shape for leaf in jax.tree.leaves(out)]
+    if len(shapes) != 1 or shapes[0] not in ((), (1,)):
+        raise ValueError(f"the objective must return one number per point (a scalar), got shape(s) {shapes}; "
+                         "for a residual vector use least_squares, or return its sum of squares")
+    if not jnp.issubdtype(jax.tree.leaves(out)[0].dtype, jnp.floating) and not jnp.issubdtype(
+            jax.tree.leaves(out)[0].dtype, jnp.integer):
+        raise ValueError(f"the objective must return a real number, got dtype {jax.tree.leaves(out)[0].dtype}")
+
+
 def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
+    """One run, or, for a solver with a ``restart_schedule`` (CMA-ES's IPOP), its successive runs
+    sharing the budget: a run starts only where the previous ones left budget for its
+    initialisation and one step and did not reach the target."""
     n_dim = lower.shape[-1]
-    fixed = solver.init_evaluations(n_dim) + solver.final_evaluations(n_dim)
+    schedule = getattr(solver, "restart_schedule", None)
+    runs = [solver] if schedule is None else schedule(n_dim, max_evaluations)
+    fixed = runs[0].init_evaluations(n_dim) + runs[0].final_evaluations(n_dim)
     if fixed > max_evaluations:
         raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} calls that "
                          "initialisation alone needs")
+    if len(runs) == 1:
+        return _run(fn, runs[0], lower, upper, y0, key, max_evaluations, jnp.asarray(0, jnp.int32),
+                    jnp.asarray(False))
+    # NOTE: each run is its own scan (its population size is static); under vmap a skipped run
+    # still costs its steps (both branches of lax.cond are evaluated), under jit alone it does not.
+    used = jnp.asarray(0, jnp.int32)
+    done = jnp.asarray(False)
+    results, states = [], []
+    for k, run_solver in zip(jax.random.split(key, len(runs)), runs, strict=True):
+        need = run_solver.init_evaluations(n_dim) + run_solver.step_evaluations(n_dim)[1]
+        skip = done | (used + need > max_evaluations)
+        r, st = _run(fn, run_solver, lower, upper, y0, k, max_evaluations, used, skip)
+        results.append(r)
+        states.append(st)
+        used = used + r.n_evaluations
+        done = done | (r.status == RESULTS.target_reached)
+    return _combine_runs(results), states[-1]
+
+
+def _combine_runs(results: list[OptimiseResult]) -> OptimiseResult:
+    """The result of successive runs: the best point of all; evaluations added up; the
+    histories concatenated (cumulative evaluations, best so far); the status of the last run
+    that ran (the target wherever it was reached)."""
+    costs = jnp.stack([r.cost for r in results])
+    i = jnp.argmin(jnp.where(jnp.isnan(costs), jnp.inf, costs))
+    params = jnp.stack([r.params for r in results])[i]
+    offsets = jnp.cumsum(jnp.stack([r.n_evaluations for r in results])) - jnp.stack(
+        [r.n_evaluations for r in results])
+    hist_n = jnp.concatenate([r.history_evaluations + o for r, o in zip(results, offsets, strict=True)])
+    hist_f = lax.cummin(jnp.concatenate([r.history_cost for r in results]))
+    status = results[0].status
+    for r in results[1:]:
+        status = RESULTS.where(r.n_evaluations > 0, r.status, status)
+    reached = jnp.any(jnp.stack([r.status == RESULTS.target_reached for r in results]))
+    status = RESULTS.where(reached, RESULTS.target_reached, status)
+    return OptimiseResult(params, costs[i], jnp.sum(jnp.stack([r.n_evaluations for r in results])), status,
+                          hist_f, hist_n.astype(jnp.int32))
+
+
+def _run(fn, solver, lower, upper, y0, key, max_evaluations, used, skip):
+    """One run of ``solver`` within what is left of the budget (``used`` calls spent before it);
+    ``skip``: run nothing (a result with no evaluations and an infinite cost)."""
+    n_dim = lower.shape[-1]
     n_steps = n_steps_for_budget(solver, n_dim, max_evaluations)
     limit = getattr(solver, "max_generations", None)
     if limit is not None:
@@ -313,7 +420,7 @@ def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     state = solver.init(fn, y0, lower, upper, k_init)
 
     def body(state, k):
-        frozen = solver.terminate(state) | (state.n_evals + max_per_step > max_evaluations)
+        frozen = skip | solver.terminate(state)[0] | (used + state.n_evals + max_per_step > max_evaluations)
         state = lax.cond(frozen, lambda s: s,
                          lambda s: solver.step(fn, s, lower, upper, k), state)
         return state, (state.best_f, state.n_evals)
@@ -321,15 +428,18 @@ def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     state, (hist_f, hist_n) = lax.scan(body, state, jax.random.split(k_steps, n_steps))
     state = solver.finalize(fn, state, lower, upper)
     hist_n = jnp.asarray(hist_n, jnp.int32)
-    done = solver.terminate(state) | solver.converged(hist_f, hist_n)
+    done, why = solver.terminate(state)
+    stalled = solver.converged(hist_f, hist_n)
     status = RESULTS.where(~jnp.isfinite(state.best_f), RESULTS.nonfinite,
-                           RESULTS.where(done, RESULTS.successful, RESULTS.max_steps_reached))
+                           RESULTS.where(done, why, RESULTS.where(stalled, RESULTS.stalled,
+                                                                 RESULTS.max_steps_reached)))
+    n_evals = jnp.where(skip, 0, jnp.asarray(state.n_evals, jnp.int32))
     result = OptimiseResult(
         params=state.best_x,
-        cost=state.best_f,
-        n_evaluations=jnp.asarray(state.n_evals, jnp.int32),
+        cost=jnp.where(skip, jnp.inf, state.best_f),
+        n_evaluations=n_evals,
         status=status,
-        history_cost=hist_f,
-        history_evaluations=hist_n,
+        history_cost=jnp.where(skip, jnp.inf, hist_f),
+        history_evaluations=jnp.where(skip, 0, hist_n),
     )
     return result, state

@@ -52,7 +52,7 @@ class ParticleSwarm(AbstractPopulationSolver):
     - ``inertia`` (w) 0.7298, ``cognitive`` (c₁) and ``social`` (c₂) 1.49618: Clerc & Kennedy's
       constriction setting.
     - ``v_max``: velocity limit as a fraction of Ω's width per axis; 1.0 (Eberhart & Shi 2000).
-    - ``epsilon``, ``stall_generations``, ``stall_rtol``: as for every population method.
+    - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
     Evaluations: ``n_nests`` at init and per generation.
     """
@@ -62,7 +62,7 @@ class ParticleSwarm(AbstractPopulationSolver):
     cognitive: float = 1.49618
     social: float = 1.49618
     v_max: float = 1.0
-    epsilon: float = 0.0
+    target: float | None = None
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 

@@ -15,21 +15,30 @@ class RESULTS(eqx.Enumeration):
 
     successful = ""
     max_steps_reached = (
-        "The step or evaluation budget ran out before the convergence test held; `params` is the "
+        "The step or evaluation budget ran out before any convergence test held; `params` is the "
         "best point found."
     )
     nonfinite = "The best cost is not finite: no feasible point was found."
+    target_reached = "The best value reached the caller's `target`."
+    stalled = (
+        "The budget ran out with the search settled: the best value improved by at most `stall_rtol` "
+        "(relative) over the last `stall_generations` generations."
+    )
 
 
+# ``successful`` is the solver's own convergence test: LM's step/cost tolerances, CMA-ES's step
+# size collapse (``tolx``) or flat fitness (``tolfun``), Nelder–Mead's simplex size. Codes are the
+# positions here: new statuses are appended, so that the codes in existing files keep their meaning.
 _NAMES = (("success", RESULTS.successful), ("max_steps", RESULTS.max_steps_reached),
-          ("nonfinite", RESULTS.nonfinite))
+          ("nonfinite", RESULTS.nonfinite), ("target", RESULTS.target_reached), ("stall", RESULTS.stalled))
 STATUS_NAMES = tuple(name for name, _ in _NAMES)
 """The stable names of the statuses in files and on the command line, in code order."""
 
 
 def status_name(status) -> str | np.ndarray:
-    """``"success"``, ``"max_steps"`` or ``"nonfinite"`` for a status (an array of names for a
-    batch): the strings written to JSON."""
+    """The stable name of a status (an array of names for a batch), as written to JSON:
+    ``"success"`` (the solver's own convergence test held), ``"max_steps"``, ``"nonfinite"``,
+    ``"target"`` (the caller's target was reached) or ``"stall"`` (the search settled)."""
     out = np.full(np.shape(np.asarray(status == RESULTS.successful)), "", dtype=object)
     for name, item in _NAMES:
         out[np.asarray(status == item)] = name
@@ -37,7 +46,7 @@ def status_name(status) -> str | np.ndarray:
 
 
 def status_code(status) -> np.ndarray:
-    """The statuses as integers 0, 1, 2 (order of :data:`STATUS_NAMES`), e.g. for counting."""
+    """The statuses as integers 0 … 4 (order of :data:`STATUS_NAMES`), e.g. for counting."""
     codes = np.zeros(np.shape(np.asarray(status == RESULTS.successful)), dtype=np.int64)
     for i, (_, item) in enumerate(_NAMES):
         codes[np.asarray(status == item)] = i

@@ -21,7 +21,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._driver import AbstractSolver, evaluate, nan_to_inf
+from ._driver import AbstractSolver, _check_target, evaluate, nan_to_inf, target_reached
+from ._result import RESULTS
 
 
 class SimplexCoefficients(eqx.Module):
@@ -148,6 +149,8 @@ class NelderMead(AbstractSolver):
       along each axis (towards the farther bound); 0.1 — a tenth of the box.
     - ``penalty`` λ = 1: any positive value makes the box minimiser exact; 1 charges a vertex
       a full box width outside twice the objective's own scale.
+    - ``target``: stop once the best value is at or below it (status ``target_reached``); ``None``
+      (default): stop on the simplex test (status ``successful``) or the budget.
 
     The start point is :func:`~stewart_jax.optimise.minimise`'s ``y0`` (default: the centre of
     the box; ``calibrate`` passes the nominal parameters).
@@ -162,8 +165,10 @@ class NelderMead(AbstractSolver):
     ftol: float = 1e-14
     initial_scale: float = 0.1
     penalty: float = 1.0
+    target: float | None = None
 
     def __check_init__(self):
+        _check_target(self)
         for name in ("xtol", "ftol"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"NelderMead.{name} must be >= 0, got {getattr(self, name)!r}")
@@ -243,7 +248,8 @@ class NelderMead(AbstractSolver):
         return self._state(x, f, state.n_evals + 2 + jnp.where(shrink, d, 0), lower, upper, state.step)
 
     def terminate(self, state):
-        return state.converged
+        reached = target_reached(self, state)
+        return reached | state.converged, RESULTS.where(reached, RESULTS.target_reached, RESULTS.successful)
 
     def finalize(self, fn, state, lower, upper):
         # best_f is g, which exceeds f where the best vertex lies outside Ω; report f at the

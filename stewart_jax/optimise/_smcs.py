@@ -1,6 +1,6 @@
 """SMCS: cuckoo search improved by simplex operations on the worst nests.
 
-Seed 000 §2.1 (Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018, after its
+Wang et al. 2018, §2.1 (Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018, after its
 refs. [12–13]): before each CS generation (Yang & Deb 2009, :mod:`.cuckoo`) the population is
 read as a Nelder–Mead simplex and its worst nests are replaced by reflection, expansion,
 contraction or shrink (:func:`.simplex.simplex_on_worst`); the CS generation then starts from
@@ -27,7 +27,7 @@ class SMCS(AbstractPopulationSolver):
       adaptive step and the bound limiting.
     - ``pa`` 0.25, ``alpha`` 0.01, ``beta`` 1.5: Yang & Deb's CS (see :class:`.CuckooSearch`).
     - ``coefficients``: Nelder–Mead coefficients (standard values).
-    - ``epsilon``: stop when the best value falls below it; 0.0 (run the whole budget).
+    - ``target``: stop once the best value is at or below it; ``None`` (run the whole budget).
     - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status.
 
     Evaluations: ``n_nests`` at init; ``3·n_worst + 2·n_nests`` per generation.
@@ -39,7 +39,7 @@ class SMCS(AbstractPopulationSolver):
     alpha: float = 0.01
     beta: float = BETA
     coefficients: SimplexCoefficients = SimplexCoefficients()
-    epsilon: float = 0.0
+    target: float | None = None
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 

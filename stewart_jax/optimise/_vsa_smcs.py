@@ -51,7 +51,7 @@ class VSASMCS(AbstractPopulationSolver):
     - ``lu`` (abandonment probability): 0.25, Yang & Deb's ``pa``, of which it is the analogue.
     - ``max_generations`` (``T_max``): ``None`` — the generations the evaluation budget
       allows, so that the step schedule of eq. 11 ends when the budget does.
-    - ``epsilon`` (``ε``; step 5 stops once ``S(u_best) < ε``): 0.0 — run the whole budget
+    - ``target`` (the paper's ``ε``; step 5 stops once ``S(u_best) ≤ ε``): ``None`` — run the whole budget
       (a fixed-budget comparison is what the study needs; set it to the expected noise floor,
       e.g. ``6m·σ_q²``, to stop early).
     - ``coefficients``: Nelder–Mead coefficients (standard values).
@@ -69,7 +69,7 @@ class VSASMCS(AbstractPopulationSolver):
     lu: float = 0.25
     beta: float = BETA
     max_generations: int | None = None
-    epsilon: float = 0.0
+    target: float | None = None
     coefficients: SimplexCoefficients = SimplexCoefficients()
     stall_generations: int = 100
     stall_rtol: float = 1e-6
