@@ -44,6 +44,7 @@ docs: $(STAMP)
 bench-deps: $(STAMP)
 	$(BIN)/python -m pip install --quiet pandas requests Pillow
 	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
+	$(BIN)/python -m pip install --quiet coco-experiment cocopp cma pyswarms
 
 bench: bench-deps
 	$(BIN)/python benchmarks/kinematics.py
@@ -54,6 +55,7 @@ bench: bench-deps
 	$(BIN)/python benchmarks/discrepancy.py
 	$(BIN)/python benchmarks/identifiability.py
 	$(BIN)/python benchmarks/sharding.py
+	$(BIN)/python benchmarks/bbob.py
 
 clean:
 	rm -rf $(VENV) build site *.egg-info
