@@ -44,7 +44,7 @@ docs: $(STAMP)
 bench-deps: $(STAMP)
 	$(BIN)/python -m pip install --quiet pandas requests Pillow
 	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
-	$(BIN)/python -m pip install --quiet coco-experiment cocopp cma pyswarms
+	$(BIN)/python -m pip install --quiet coco-experiment cocopp six cma pyswarms
 
 bench: bench-deps
 	$(BIN)/python benchmarks/kinematics.py

@@ -396,7 +396,20 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", default=",".join([*OURS, *REFERENCE_OF.values()]))
     ap.add_argument("--no-batched", action="store_true")
     ap.add_argument("--no-cocopp", action="store_true")
+    ap.add_argument("--postprocess-only", action="store_true",
+                    help="only cocopp on the logs in results/bbob/exdata (of --methods)")
     args = ap.parse_args(argv)
+    if args.postprocess_only:
+        folders = [os.path.join(OUT, "exdata", m) for m in args.methods.split(",")]
+        pp = postprocess(folders)
+        path = os.path.join(RESULTS, "bbob.json")
+        with open(path) as fh:
+            payload = json.load(fh)
+        payload["cocopp_output"] = os.path.relpath(pp, RESULTS) if pp else None
+        with open(path, "w") as fh:
+            json.dump(payload, fh, indent=1)
+            fh.write("\n")
+        return 0
 
     def expand(text):
         out = []
