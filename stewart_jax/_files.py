@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 import tempfile
 
 
@@ -14,15 +15,48 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     on POSIX): readers see the old file or the new one, never a part. The temporary file is
     removed if writing fails."""
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(path)}-", suffix=".partial")
+    mode = _target_mode(path)
     try:
+        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(path)}-", suffix=".partial")
+    except OSError as e:  # name the user's path, not the temporary file's
+        raise OSError(e.errno, f"cannot write {os.fspath(path)}: {e.strerror}") from None
+    try:
+        # NOTE: mkstemp creates its file with mode 0600 whatever the umask; renamed over ``path``
+        # that would make an export or a HAL file unreadable to the controller's user. The new
+        # file gets the mode ``open()`` would give it (0666 less the umask), an overwritten file
+        # keeps its own.
+        os.fchmod(fd, mode)
         with os.fdopen(fd, "w") as f:
             f.write(text)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(e, OSError):
+            raise OSError(e.errno, f"cannot write {os.fspath(path)}: {e.strerror}") from None
         raise
+
+
+def _current_umask() -> int:
+    try:  # Linux ≥ 4.7 states it; reading it does not change it (thread-safe)
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # elsewhere reading the umask means setting it; restored at once
+    os.umask(mask)
+    return mask
+
+
+def _target_mode(path: str | os.PathLike[str]) -> int:
+    """The permission bits a file written at ``path`` should have: those of the file it replaces,
+    else ``0o666`` less the process's umask (what ``open(path, "w")`` gives a new file)."""
+    try:
+        return stat.S_IMODE(os.stat(path).st_mode)
+    except FileNotFoundError:
+        return 0o666 & ~_current_umask()
 
 
 def check_writable(path: str | os.PathLike[str], what: str = "output") -> None:
@@ -39,6 +73,36 @@ def check_writable(path: str | os.PathLike[str], what: str = "output") -> None:
         raise ValueError(f"{what} {path!s}: the folder {directory} is not writable")
     if os.path.exists(p) and not os.access(p, os.W_OK):
         raise ValueError(f"{what} {path!s} exists and is not writable")
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether two paths name one file (the same resolved path, or hard links to one inode)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_distinct_paths(paths: dict[str, str | os.PathLike[str] | None],
+                         inputs: dict[str, str | os.PathLike[str] | None] | None = None) -> None:
+    """Raise ``ValueError`` if two outputs (``{description: path}``) name one file, or an output
+    names an input file: the later write would destroy the earlier file (a study's checkpoint
+    replaced by its result, a measurement file by a report). Called before any work."""
+    outs = [(what, p) for what, p in paths.items() if p]
+    for i, (w1, p1) in enumerate(outs):
+        for w2, p2 in outs[i + 1:]:
+            if same_file(p1, p2):
+                raise ValueError(f"{w1} and {w2} are the same file ({p1!s}): the second write would destroy "
+                                 "the first; give each output its own path")
+    for what_in, p_in in (inputs or {}).items():
+        if not p_in or not os.path.isfile(p_in):
+            continue
+        for what, p in outs:
+            if same_file(p, p_in):
+                raise ValueError(f"{what} {p!s} is the input {what_in}: writing it would destroy the input; "
+                                 "give the output its own path")
 
 
 def finite_or_none(obj):

@@ -4,16 +4,23 @@ from __future__ import annotations
 
 import argparse
 
+_INPUTS = {"file": "data file", "geometry": "--geometry", "true": "--true", "points": "--points"}
+"""Arguments that may name an input file: no output may overwrite one."""
+
 
 def check_outputs(args: argparse.Namespace, **outputs: str) -> None:
-    """Every output path given (``attribute=description``) can be written: checked before any
-    work, so that a typo in a path costs nothing."""
-    from .._files import check_writable
+    """Every output path given (``attribute=description``) can be written, no two of them are
+    one file and none is an input file: checked before any work, so that a typo in a path costs
+    nothing and no output destroys another (a checkpoint replaced by the result)."""
+    from .._files import check_distinct_paths, check_writable
 
     for attr, what in outputs.items():
         path = getattr(args, attr, None)
         if path:
             check_writable(path, what)
+    inputs = {what: getattr(args, attr, None) for attr, what in _INPUTS.items()}
+    check_distinct_paths({what: getattr(args, attr, None) for attr, what in outputs.items()},
+                         {k: v for k, v in inputs.items() if isinstance(v, str)})
 
 
 def write_json(path: str, obj) -> None:

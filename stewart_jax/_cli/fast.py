@@ -109,18 +109,26 @@ def run_fast(args: argparse.Namespace) -> int:
         cabin_modes_jit,
         cable_string_modes,
         paper_fast_params,
-        reflector_clearance,
         run_scenario_jit,
     )
+    from ._common import check_outputs
 
+    check_outputs(args, json="--json", plot="--plot")
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
         return 2
-    if float(reflector_clearance(np.asarray(args.position))) <= 0.0:
-        print(f"error: cabin position {list(args.position)} m is at or below the reflector's surface "
-              "(sphere of radius 300 m through the origin) or the ground", file=sys.stderr)
-        return 2
     params = paper_fast_params()
+    from ..cable_robot._inputs import check_time_step, focal_surface_warning, highest_mode_bound_hz, position_problem
+    from ..cable_robot._scenario import PAPER_FREQUENCY
+
+    problem = position_problem(args.position, params.towers)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
+    for note in (focal_surface_warning(args.position),
+                 check_time_step(args.dt, PAPER_FREQUENCY, highest_mode_bound_hz(params, args.position))):
+        if note:
+            print(f"warning: {note}", file=sys.stderr)
     sol = _statics(args, params)
     cs = sol.statics
     status = WORKSPACE_STATUS[int(cs.status)]

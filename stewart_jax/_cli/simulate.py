@@ -26,7 +26,11 @@ def run(args: argparse.Namespace) -> int:
     tracker = tracker_for(nominal, sigma_um=args.tracker_sigma_um) if args.tracker else None
     sim = simulate_measurements(k_noise, nominal, true, targets, args.sigma_um, args.sigma_arcsec, tracker)
     if not bool(np.all(sim.converged)):
-        raise SystemExit("simulate: forward kinematics of the true mechanism failed at a target pose")
+        failed = (np.flatnonzero(~np.asarray(sim.converged)) + 1).tolist()
+        raise ValueError(f"forward kinematics of the true mechanism ({args.true or 'default'}) failed at target "
+                         f"pose(s) {failed[:10]}{' …' if len(failed) > 10 else ''} of {len(targets)}: the true "
+                         "mechanism cannot reach them; check its lengths and limits and their units (mm, "
+                         "degrees), and that --geometry and --true describe one hexapod")
     extra = {}
     for prefix, poses in (("target", sim.targets), ("true", sim.true_poses)):
         p = np.array(poses)

@@ -63,7 +63,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--half-width", type=float, default=10.0)
     p.add_argument("--max-evaluations", type=int, help="evaluation budget of the metaheuristics")
     p.add_argument("--chunk", type=int, help="trials per chunk (progress; checkpoint granularity)")
-    p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume")
+    p.add_argument("--checkpoint", help="save finished chunks here; rerun with it to resume (hosts running "
+                                         "their own --first-trial ranges may share one file)")
     p.add_argument("--devices", type=int, default=1,
                    help="split each chunk's trials over this many local JAX devices")
     p.add_argument("--first-trial", type=int, default=0,

@@ -40,6 +40,11 @@ class CableParams(eqx.Module):
     rho: Float[Array, ""] = eqx.field(converter=lambda x: jnp.asarray(x, jnp.float64), default=13.898)
     g: Float[Array, ""] = eqx.field(converter=lambda x: jnp.asarray(x, jnp.float64), default=-9.8)
 
+    def __check_init__(self):
+        from ._inputs import check_cable_material
+
+        check_cable_material(self.EA, self.rho, self.g)
+
 
 class CatenarySolution(NamedTuple):
     """Result of :func:`solve_catenary`; leading axes are the batch of cables.

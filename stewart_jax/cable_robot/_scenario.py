@@ -206,6 +206,7 @@ def run_scenario(
     check_position(position)
     if not (duration > 0 and dt > 0 and np.isfinite(duration) and np.isfinite(dt)):
         raise ValueError(f"duration and dt must be positive, got {duration}, {dt}")
+    _check_inputs(params, position, dt, frequency, attitude)
     n_steps = int(round(duration / dt))
     position = jnp.asarray(position, jnp.float64)
     R0 = jnp.eye(3, dtype=jnp.float64) if attitude is None else jnp.asarray(attitude, jnp.float64)
@@ -244,6 +245,20 @@ def scenario_outputs(params: FastParams, traj: Trajectory, static, motion) -> Sc
     corr, std, amp = table2_statistics(extra, disp)
     return ScenarioResult(traj.time, planned, x_P, extra, disp, angle, corr, std, amp,
                           static.s0, static.tension[:, 0], static.converged, traj.n_failed)
+
+
+def _check_inputs(params, position, dt, frequency, attitude) -> None:
+    """Where the values are concrete: the position is one a cabin can take, and ``dt`` resolves
+    the forcing and the cabin's highest mode (refused when too coarse, warned when marginal)."""
+    from ._inputs import _concrete, highest_mode_bound_hz, position_problem, warn_time_step
+
+    mode = None
+    if _concrete(params, position, attitude):
+        problem = position_problem(position, params.towers)
+        if problem:
+            raise ValueError(problem)
+        mode = highest_mode_bound_hz(params, position, attitude)
+    warn_time_step(dt, frequency, mode)
 
 
 run_scenario_jit = jax.jit(run_scenario, static_argnames=("duration", "dt", "start", "method"))

@@ -83,6 +83,11 @@ class FastParams(eqx.Module):
     h: Float[Array, ""] = eqx.field(converter=_f64)
     gravity: Float[Array, "3"] = eqx.field(converter=_f64)
 
+    def __check_init__(self):
+        from ._inputs import check_fast_params
+
+        check_fast_params(self)
+
 
 def tower_positions(r_T: float = 300.0, H: float = 270.0) -> np.ndarray:
     """Tower tops ``(r_T cos((i−1)π/3), r_T sin((i−1)π/3), H)``, eq. 1."""

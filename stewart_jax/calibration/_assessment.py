@@ -45,6 +45,10 @@ IDENTIFIABLE_TOL = 1e-6
 """A parameter is identifiable when ``1 − |P e_k|² ≤`` this (``P`` the projector on the row space)."""
 FIT_P_VALUE = 1e-3
 """The χ² test flags a fit whose p-value is below this."""
+GROSS_MISFIT_RATIO = 10.0
+"""A fit whose whitened RMS stroke residual exceeds this multiple of the stated noise is a gross
+misfit: ``poor_fit`` whatever the χ² test's degrees of freedom and the rank (a correct model
+fits at ≈ 1×, below it when the parameters absorb part of the noise)."""
 DUPLICATE_ATOL = (1e-6, 1e-9)
 """Poses closer than this (mm, rad) in every component are duplicates."""
 
@@ -145,8 +149,16 @@ def assess_calibration(
             f"{rep.condition_number:.3g}); not identifiable alone: {lost[:12]}{' …' if len(lost) > 12 else ''}. "
             "Their values are the starting ones plus an arbitrary share; measure more, and more varied, poses "
             "(stewart_jax.calibration.plan_poses_optimal chooses them)")
-    chi2 = _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rep.rank)
+    chi2, whitened = _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rep.rank)
     dof = 6 * m - rep.rank
+    gross = float(np.sqrt(whitened / (6 * m)))
+    if gross > GROSS_MISFIT_RATIO:
+        warnings.append(
+            f"gross misfit: the stroke residuals are {gross:.3g}× the stated noise (σ = {sigma_um} µm, "
+            f"{sigma_arcsec}″; RMS {1e3 * float(np.sqrt(np.mean(residuals**2))):.4g} µm), far beyond what any "
+            "noise explains. Likely causes: the units (poses in mm and degrees, readings in mm: angles in "
+            "radians under a degree header, or a file in metres), the wrong geometry for this mechanism "
+            "(--geometry), or the wrong parameter set (--param-set); the calibrated values are not to be used")
     p = float(gammaincc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")
     ratio = float(np.sqrt(chi2 / dof)) if dof > 0 else float("nan")
     if dof > 0 and p < FIT_P_VALUE:
@@ -160,8 +172,10 @@ def assess_calibration(
             f"the residuals are smaller than the stated noise allows (χ² = {chi2:.4g} on {dof} degrees of freedom, "
             f"p = {low:.2g} of so small a value): σ is overstated — and every reported uncertainty with it — or "
             "the file's lengths are in another unit (a file in metres shrinks every length 1000×)")
-    poor = dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE)
-    status = "rank_deficient" if rep.rank < n else "poor_fit" if poor else "ok"
+    poor = gross > GROSS_MISFIT_RATIO or (dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE))
+    # a gross misfit outranks rank deficiency: the numbers are wrong, not only under-determined
+    status = ("poor_fit" if gross > GROSS_MISFIT_RATIO else "rank_deficient" if rep.rank < n
+              else "poor_fit" if poor else "ok")
     return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
                                  chi2, dof, p, ratio, warnings, np.asarray(rep.param_cov))
 
@@ -180,8 +194,9 @@ def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> 
     return np.asarray(error_in_report_units(dp))
 
 
-def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> float:
-    """``min_δ |W (r − A δ)|²``: the whitened residual with every parameter direction removed."""
+def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> tuple[float, float]:
+    """``min_δ |W (r − A δ)|²`` (the whitened residual with every parameter direction removed)
+    and ``|W r|²`` (the whitened residual itself)."""
     from ._identifiability import identification_jacobian
 
     m, n = residuals.shape[0], calibrated.n_params
@@ -195,4 +210,5 @@ def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> flo
     aw = np.linalg.solve(chol, a).reshape(6 * m, n)
     u, _, _ = np.linalg.svd(aw, full_matrices=False)
     u = u[:, :rank]
-    return max(float(rw @ rw - np.sum((u.T @ rw) ** 2)), 0.0)  # ≥ 0 up to rounding
+    whitened = float(rw @ rw)
+    return max(whitened - float(np.sum((u.T @ rw) ** 2)), 0.0), whitened  # ≥ 0 up to rounding

@@ -9,10 +9,12 @@ and shapes reuse the compiled code.
 The registry :data:`METHOD_REGISTRY` (name → :class:`Method`) is the only list of methods: the
 CLI's ``--method`` choices, the study's labels, the tests and the Makefile's demo read it.
 Adding an optimiser is one module in :mod:`stewart_jax.optimise` and one
-:func:`register_method` call here.
+:func:`register_method` call here. Every method runs through one protocol: the problem becomes an
+:class:`~stewart_jax.optimise.Objective` (:func:`objective`) and the solver's ``solve`` (one trial)
+or ``solve_batch`` (a batch) runs it; nothing here depends on what kind of solver it is.
 
 ``lm-batched`` (:class:`~stewart_jax.optimise.BatchedLevenbergMarquardt`) is the fast path of
-``calibrate_batch``: instead of vmapping one solve per trial it runs
+``calibrate_batch``: its ``solve_batch``, instead of vmapping one solve per trial, runs
 :func:`~stewart_jax.optimise.least_squares_batch` on the whole batch, with one least-squares
 block per leg where the family declares its legs' parameters disjoint
 (``mechanism.leg_parameters``) and the family's closed-form ``parameter_jacobian`` where it has
@@ -27,6 +29,7 @@ residual vector and one Jacobian) for the LM methods. The hybrid takes both.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Literal
 
@@ -36,14 +39,14 @@ import numpy as np
 from jaxtyping import PRNGKeyArray
 
 from ..mechanism._abstract import AbstractMechanism
-from ..optimise._batched_lm import BatchedLevenbergMarquardt, Blocks, least_squares_batch
+from ..optimise._batched_lm import BatchedLevenbergMarquardt, Blocks
 from ..optimise._cma_es import CMAES
 from ..optimise._cuckoo import CuckooSearch
 from ..optimise._differential_evolution import DifferentialEvolution
-from ..optimise._driver import minimise
 from ..optimise._hybrid import VSASMCSThenLM
 from ..optimise._jaxopt_lm import JaxoptLevenbergMarquardt
 from ..optimise._levenberg_marquardt import LevenbergMarquardt
+from ..optimise._objective import AbstractOptimiser, Objective
 from ..optimise._pso import ParticleSwarm
 from ..optimise._result import OptimiseResult
 from ..optimise._simplex import NelderMead
@@ -61,9 +64,11 @@ class Method:
     - ``name``: the CLI/JSON name (``"vsa-smcs"``).
     - ``label``: the name in tables and figures (``"VSA-SMCS"``).
     - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters.
-    - ``kind``: how it runs: ``"least_squares"`` (residual vector from the nominal parameters,
-      budget ``max_steps``), ``"box"`` (cost over Ω within ``max_evaluations``, from the nominal
-      parameters where the solver uses a start), ``"hybrid"`` (both budgets).
+    - ``kind``: which budget it takes, for listings and the command line's checks (it does not
+      change how the method runs: every solver's ``solve`` does): ``"least_squares"`` (residual
+      vector from the nominal parameters, budget ``max_steps``), ``"box"`` (cost over Ω within
+      ``max_evaluations``, from the nominal parameters where the solver uses a start),
+      ``"hybrid"`` (both budgets).
     - ``reference``: the citation shown in listings.
     """
 
@@ -147,16 +152,21 @@ def method_label(name: str) -> str:
     return METHOD_REGISTRY[name].label if name in METHOD_REGISTRY else name
 
 
-def make_solver(name: str, max_steps: int | None = None, **options: Any) -> eqx.Module:
+def make_solver(name: str, max_steps: int | None = None, **options: Any) -> AbstractOptimiser:
     """The solver object of method ``name`` with its hyper-parameters set from ``options``
     (field names of the solver class; for ``"vsa-smcs+lm"`` the fields of :class:`VSASMCS`,
-    and ``max_steps`` for its LM phase)."""
+    and ``max_steps`` for its LM phase). ``max_steps`` goes to the methods that take a step
+    budget and is ignored by the others. ``epsilon`` (the paper's ``ε``) is accepted as the
+    population methods' ``target``."""
     m = method(name)
-    if m.kind == "least_squares" and max_steps is not None:
+    if "epsilon" in options:
+        options["target"] = options.pop("epsilon")
+    if max_steps is not None and "max_steps" in inspect.signature(m.factory).parameters:
         options["max_steps"] = max_steps
-    elif m.kind == "hybrid":
-        options["max_steps"] = max_steps
-    return m.factory(**options)
+    solver = m.factory(**options)
+    if not isinstance(solver, AbstractOptimiser):
+        raise TypeError(f"method {name!r}: its factory made a {type(solver).__name__}, not an optimiser with `solve`")
+    return solver
 
 
 def _residuals(u, problem):
@@ -189,44 +199,37 @@ def _leg_blocks(problem: CalibrationProblem) -> Blocks | None:
     return Blocks(rows, np.asarray(legs))
 
 
-def _run(kind: Kind, solver, problem: CalibrationProblem, key, max_evaluations: int) -> OptimiseResult:
-    if isinstance(solver, BatchedLevenbergMarquardt):
-        return solver.run(_residuals, problem.initial, problem, _cost, _jacobian(problem.mechanism),
-                          _leg_blocks(problem))
-    if kind == "least_squares":
-        return solver.run(_residuals, problem.initial, problem, _cost)
-    if kind == "hybrid":
-        return solver.run(_residuals, problem.lower, problem.upper, key, max_evaluations, problem, _cost,
-                          _jacobian(problem.mechanism), _leg_blocks(problem))
-    return minimise(_cost, solver, problem.lower, problem.upper, key, max_evaluations=max_evaluations,
-                    y0=problem.initial, args=problem)
+def objective(problem: CalibrationProblem) -> Objective:
+    """The calibration problem as every optimiser sees it: the cost ``S(u)`` (Wang et al. 2018,
+    eq. 9; +inf where a pose is unreachable), the residual ``E(u)`` (eq. 8), the family's
+    closed-form Jacobian where it has one, and one block per leg where its legs' parameters are
+    disjoint. Built from static properties only (usable under ``jit``)."""
+    return Objective(_cost, _residuals, _jacobian(problem.mechanism), _leg_blocks(problem))
 
 
 @eqx.filter_jit
-def _run_one(kind, solver, problem, key, max_evaluations):
-    return _run(kind, solver, problem, key, max_evaluations)
-
-
-def _lm_batch(solver: BatchedLevenbergMarquardt, starts, problems: CalibrationProblem) -> OptimiseResult:
-    """The batched LM on every problem of the batch from ``starts`` (per-leg blocks, the family's
-    Jacobian)."""
-    return least_squares_batch(_residuals, solver, starts, args=problems, jac=_jacobian(problems.mechanism),
-                               cost=_cost, blocks=_leg_blocks(problems))
+def _run_one(solver, problem, key, max_evaluations):
+    return solver.solve(objective(problem), problem.initial, problem.lower, problem.upper, key, problem,
+                        max_evaluations)
 
 
 @eqx.filter_jit
-def _run_batch(kind, solver, problems, keys, max_evaluations):
-    if isinstance(solver, BatchedLevenbergMarquardt):  # the fast path: its own batched loop
-        return _lm_batch(solver, problems.initial, problems)
-    if isinstance(solver, VSASMCSThenLM) and isinstance(solver.local_phase, BatchedLevenbergMarquardt):
-        g = jax.vmap(lambda p, k: solver.explore(_cost, p.lower, p.upper, k, max_evaluations, p))(problems, keys)
-        return jax.vmap(solver.combine)(g, _lm_batch(solver.local_phase, g.params, problems))
-    return jax.vmap(lambda p, k: _run(kind, solver, p, k, max_evaluations))(problems, keys)
+def _run_batch(solver, problems, keys, max_evaluations):
+    return solver.solve_batch(objective(problems), problems.initial, problems.lower, problems.upper, keys, problems,
+                              max_evaluations)
 
 
-def _check_budget(max_evaluations: int) -> int:
+def _check_budget(max_evaluations: int, solver=None, problem: CalibrationProblem | None = None) -> int:
+    """The budget, checked before any work: a positive integer that covers the solver's
+    initialisation (for the methods that count cost evaluations)."""
     if int(max_evaluations) != max_evaluations or max_evaluations < 1:
         raise ValueError(f"max_evaluations must be a positive integer, got {max_evaluations}")
+    if solver is not None and problem is not None:
+        n = problem.initial.shape[-1]
+        fixed = solver.min_evaluations(n)
+        if fixed > max_evaluations:
+            raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} cost evaluations that "
+                             f"{type(solver).__name__} needs to initialise and take one step on {n} parameters")
     return int(max_evaluations)
 
 
@@ -245,7 +248,7 @@ def calibrate(
     solver's hyper-parameters (see :func:`make_solver`)."""
     solver = make_solver(method, max_steps, **options)
     key = jax.random.key(0) if key is None else key
-    return _run_one(METHOD_REGISTRY[method].kind, solver, problem, key, _check_budget(max_evaluations))
+    return _run_one(solver, problem, key, _check_budget(max_evaluations, solver, problem))
 
 
 def calibrate_batch(
@@ -262,4 +265,4 @@ def calibrate_batch(
     ``jax.tree.map(lambda *a: jnp.stack(a), *problems)``), ``keys`` one key per trial. One
     compilation for the whole batch; the result has the same leading axis."""
     solver = make_solver(method, max_steps, **options)
-    return _run_batch(METHOD_REGISTRY[method].kind, solver, problems, keys, _check_budget(max_evaluations))
+    return _run_batch(solver, problems, keys, _check_budget(max_evaluations, solver, problems))

@@ -31,7 +31,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
-from ._registry import check_file_header, register_family, register_preset
+from ._registry import check_file_header, check_keys, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS = 36
@@ -477,7 +477,9 @@ def _positive(x: ArrayLike, name: str) -> Array:
         return x
     a = _checked_numpy(x, name, (N_LEGS,))
     if np.any(a <= 0):
-        raise ValueError(f"6-PSS {name} must be positive (mm), got {a.tolist()}")
+        bad = np.flatnonzero(a <= 0)
+        raise ValueError(f"6-PSS {name} must be positive (mm): leg(s) {(bad + 1).tolist()} have "
+                         f"{a[bad].tolist()} (all: {a.tolist()})")
     return jnp.asarray(a)
 
 
@@ -583,6 +585,7 @@ def geometry_from_dict(d: dict[str, Any]) -> PSSMechanism:
     slider axes in B), ``rod_lengths`` (6) and ``param_set`` (``"36"``, ``"42"``, ``"54"``; default
     ``"54"`` with ``axes``, ``"42"`` with ``rod_lengths``, else ``"36"``); lengths in mm."""
     check_file_header(d, PSSMechanism.family)
+    check_keys(d, PSSMechanism.family, ("upper", "lower", "params", "v0", "axes", "rod_lengths", "param_set"))
     v0 = d.get("v0", (0.0, 0.0, 0.0))
     param_set = str(d.get("param_set", _default_param_set(d)))
     if param_set not in PARAM_SETS:

@@ -60,6 +60,85 @@ def check_file_header(d: dict[str, Any], family: str) -> None:
         raise ValueError(f"{family} geometry lengths must be in mm, the file says units={units!r}")
 
 
+DOCUMENTATION_KEYS = ("name", "description", "comment", "source", "notes")
+"""Keys a geometry file may carry for people (ignored), besides any key starting with ``_``."""
+
+
+def check_keys(d: dict[str, Any], family: str, known: tuple[str, ...]) -> None:
+    """Refuse a key the family does not read, with the nearest known key: a misspelt
+    ``strok_limits`` would otherwise silently drop the stroke limits."""
+    import difflib
+
+    allowed = {"mechanism", "units", *known, *DOCUMENTATION_KEYS}
+    unknown = [k for k in d if k not in allowed and not (isinstance(k, str) and k.startswith("_"))]
+    if not unknown:
+        return
+    hints = []
+    for k in unknown:
+        near = difflib.get_close_matches(str(k), sorted(allowed), n=1, cutoff=0.6)
+        hints.append(f"{k!r}" + (f" (did you mean {near[0]!r}?)" if near else ""))
+    raise ValueError(f"{family} geometry has unknown key(s) {', '.join(hints)}; the keys it reads are "
+                     f"{sorted(allowed - set(DOCUMENTATION_KEYS))} (keys starting with '_' and "
+                     f"{list(DOCUMENTATION_KEYS)} are notes for people)")
+
+
+def _zero_pose(m: AbstractMechanism, zero):
+    import jax
+
+    global _ZERO_POSE_JIT
+    if _ZERO_POSE_JIT is None:  # jitted: one compilation instead of one per operation
+        _ZERO_POSE_JIT = jax.jit(lambda m, p: m.ik_and_jacobian(p))
+    return _ZERO_POSE_JIT(m, zero)
+
+
+_ZERO_POSE_JIT = None
+
+
+def check_geometry(m: AbstractMechanism) -> None:
+    """Checks every geometry file passes at load (and so ``simulate``, ``calibrate`` and ``export``
+    alike), each naming the leg and the value: no two legs the same, the zero pose reachable and
+    its pose Jacobian ``∂q/∂P`` not singular (a singular one means the struts cannot hold the
+    platform: all horizontal, joints on one line, a zero-length strut)."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    params = np.asarray(m.params)
+    legs = m.leg_parameters
+    if legs is not None:
+        for i in range(len(legs)):
+            for j in range(i + 1, len(legs)):
+                a, b = params[list(legs[i])], params[list(legs[j])]
+                if np.allclose(a, b, rtol=0.0, atol=1e-9 * max(1.0, float(np.max(np.abs(params))))):
+                    raise ValueError(f"legs {i + 1} and {j + 1} are the same leg (identical joints "
+                                     f"{a.tolist()}): a copy-paste slip? Six distinct legs are needed")
+    strokes, margin, jac = (np.asarray(x) for x in _zero_pose(m, jnp.zeros((1, 6))))
+    margin, jac = margin[0], jac[0]
+    if not np.all(margin >= 0):
+        bad = np.flatnonzero(~(margin >= 0))
+        raise ValueError(
+            f"the zero pose is not reachable: legs {(bad + 1).tolist()} (readings {strokes[0][bad].tolist()} mm, "
+            f"margins {margin[bad].tolist()}) are outside their limits or cannot be assembled; check the "
+            "lengths, the limits and their units (mm, degrees)")
+    if not np.all(np.isfinite(jac)):
+        raise ValueError("the pose Jacobian at the zero pose is not finite (a zero-length leg?)")
+    # mm and rad columns: scale the angle columns by the size of the mechanism before comparing
+    size = max(float(np.max(np.abs(params))), 1e-12)
+    scaled = jac * np.array([1.0] * 3 + [1.0 / size] * 3)
+    sv = np.linalg.svd(scaled, compute_uv=False)
+    if sv[-1] <= 1e-9 * sv[0]:
+        _, _, vt = np.linalg.svd(scaled)
+        null = vt[-1] * np.array([1.0] * 3 + [1.0 / size] * 3)
+        names = ("dx", "dy", "dz", "φ", "θ", "ψ")
+        k = np.argsort(-np.abs(null))
+        direction = " + ".join(f"{null[i] / np.abs(null[k[0]]):.3g}·{names[i]}" for i in k if abs(null[i]) > 1e-3 *
+                               abs(null[k[0]]))
+        raise ValueError(
+            f"the legs cannot hold the platform at the zero pose: the pose Jacobian ∂q/∂P is singular "
+            f"(condition number {sv[0] / max(sv[-1], 1e-300):.3g}); the platform can move along "
+            f"{direction} with no reading changing. Causes: all legs horizontal for dz, the joints of one side on "
+            "a line or at one point, a zero-length leg, legs pointing through one line")
+
+
 def families() -> tuple[str, ...]:
     """The registered family names (geometry files' ``"mechanism"`` values)."""
     return tuple(_FAMILIES)
@@ -91,7 +170,9 @@ def mechanism_from_dict(d: dict[str, Any]) -> AbstractMechanism:
     """A geometry file's content → the mechanism of the family it names (default 6-PSS)."""
     if not isinstance(d, dict):
         raise ValueError(f"a geometry must be a JSON/TOML object (mapping), got {type(d).__name__}")
-    return family(d.get("mechanism", DEFAULT_FAMILY)).from_dict(d)
+    m = family(d.get("mechanism", DEFAULT_FAMILY)).from_dict(d)
+    check_geometry(m)
+    return m
 
 
 def load_mechanism(source: str | os.PathLike[str]) -> AbstractMechanism:

@@ -50,12 +50,17 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
-from ._registry import check_file_header, register_family, register_preset
+from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
 
 N_LEGS = 6
 N_PARAMS_UPS = 42
 
 _TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg")
+_FILE_KEYS = ("base", "platform", "v0", "lengths0", "stroke_limits", "joint_angle_limits", "joint_angle_limit",
+              "travel")
+TRAVEL_CUT_FACTOR = 4.0
+"""A file whose limits shrink the reachable travel box more than this factor (against the same
+geometry without limits) gets a warning naming the limit and the likely unit slip."""
 
 
 @register_family
@@ -298,6 +303,7 @@ class UPSMechanism(AbstractMechanism):
         ``joint_angle_limits`` (degrees, one number or six, each in (0, 90)), ``travel``
         (``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``), ``units`` (must be ``"mm"``)."""
         check_file_header({"mechanism": cls.family, **d}, cls.family)  # called directly, the key may be absent
+        check_keys(d, cls.family, _FILE_KEYS)
         missing = [k for k in ("base", "platform") if k not in d]
         if missing:
             raise ValueError(f"6-UPS geometry is missing {missing}: give 'base' and 'platform' (6x3, mm)")
@@ -319,7 +325,7 @@ class UPSMechanism(AbstractMechanism):
                 )
             t = _finite([travel[k] for k in _TRAVEL_KEYS], "travel")
             travel = (*t[:3], *np.deg2rad(t[3:]))
-        return cls(
+        m = cls(
             d["base"],
             d["platform"],
             d.get("v0", (0.0, 0.0, 0.0)),
@@ -328,6 +334,10 @@ class UPSMechanism(AbstractMechanism):
             joint_angle_limit=angle,
             travel=travel,
         )
+        _check_layout(m)
+        check_geometry(m)  # refusals before warnings
+        _warn_unit_slips(m)
+        return m
 
 
 class _IKParts(NamedTuple):
@@ -469,6 +479,115 @@ def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
     if a[3] > 0.5 or a[4] > 0.5:
         raise ValueError(f"UPSMechanism.travel angles are radians; {a[3:].tolist()} looks like degrees")
     return tuple(float(v) for v in a)  # type: ignore[return-value]
+
+
+# ---- geometry-file checks -----------------------------------------------------------------------
+
+
+def _check_layout(m: UPSMechanism) -> None:
+    """Physically impossible layouts, refused naming the leg and the value (the generic
+    :func:`~stewart_jax.mechanism._registry.check_geometry` follows: duplicate legs, the zero
+    pose, the Jacobian)."""
+    base, platform, v0 = np.asarray(m.base), np.asarray(m.platform), np.asarray(m.v0)
+    lengths0 = np.asarray(m.lengths0)
+    strut = platform + v0 - base
+    length = np.linalg.norm(strut, axis=-1)
+    size = max(float(np.max(np.linalg.norm(np.concatenate([base, platform + v0]), axis=-1))), 1e-300)
+    short = np.flatnonzero(length <= 1e-9 * size)
+    if short.size:
+        i = int(short[0])
+        raise ValueError(f"strut {i + 1} has zero length at the zero pose: its base joint {base[i].tolist()} mm is "
+                         f"its platform joint + v0 {(platform[i] + v0).tolist()} mm")
+    bad = np.flatnonzero(lengths0 <= 0)
+    if bad.size:
+        raise ValueError(f"lengths0 (the strut lengths at zero reading) must be > 0 mm: strut(s) "
+                         f"{(bad + 1).tolist()} have {lengths0[bad].tolist()} mm")
+    if np.all(np.abs(strut[:, 2]) <= 1e-9 * length):
+        raise ValueError("every strut is horizontal at the zero pose (no z component): the struts cannot hold "
+                         "the platform up (dz is free); check the z coordinates of base and platform")
+    for side, pts in (("base", base), ("platform", platform)):
+        centred = pts - pts.mean(axis=0)
+        sv = np.linalg.svd(centred, compute_uv=False)
+        if sv[1] <= 1e-9 * max(sv[0], 1e-300):
+            raise ValueError(f"the six {side} joints lie on one line ({pts.tolist()} mm): the struts cannot "
+                             "stop the platform turning about it; check the file's joint coordinates")
+
+
+def _warn_unit_slips(m: UPSMechanism) -> None:
+    """Warnings for plausible unit slips: a mechanism of centimetre size (metres in a file
+    labelled mm) or of a hundred metres (µm), and limits that cut the travel by more than
+    :data:`TRAVEL_CUT_FACTOR` (radians typed for degrees, metres for mm)."""
+    import warnings
+
+    joints = np.concatenate([np.asarray(m.base), np.asarray(m.platform) + np.asarray(m.v0)])
+    size = float(np.max(np.linalg.norm(joints, axis=-1)))
+    if size < 20.0:
+        warnings.warn(f"6-UPS geometry: the joints lie within {size:.3g} mm of the origin — a hexapod of "
+                      f"{size / 10:.2g} cm? Lengths are mm: a file in metres needs every length × 1000",
+                      UserWarning, stacklevel=3)
+    elif size > 1e5:
+        warnings.warn(f"6-UPS geometry: joints {size / 1e3:.3g} m from the origin — lengths are mm: a file in "
+                      "µm needs every length ÷ 1000", UserWarning, stacklevel=3)
+    if m.stroke_limits is not None:
+        span = max(hi - lo for lo, hi in m.stroke_limits)
+        longest = float(np.max(np.asarray(m.lengths0)))
+        if span > 2 * longest:
+            warnings.warn(f"6-UPS geometry: stroke_limits spanning {span:.4g} mm, more than twice the longest strut "
+                          f"({longest:.4g} mm): micrometres typed where mm are expected?", UserWarning, stacklevel=3)
+    if m.stroke_limits is None and m.joint_angle_limit is None:
+        return
+    full = _reachable_scale(UPSMechanism(m.base, m.platform, m.v0, m.lengths0, travel=m.travel))
+    limited = _reachable_scale(m)
+    if limited * TRAVEL_CUT_FACTOR >= full:
+        return
+    causes = []
+    if m.joint_angle_limit is not None:
+        deg = float(np.rad2deg(min(m.joint_angle_limit)))
+        only_angle = UPSMechanism(m.base, m.platform, m.v0, m.lengths0, joint_angle_limit=m.joint_angle_limit,
+                                  travel=m.travel)
+        if _reachable_scale(only_angle) * TRAVEL_CUT_FACTOR < full:
+            causes.append(f"joint_angle_limits of {deg:.3g}° (radians typed where degrees are expected? "
+                          f"{deg:.3g} rad = {np.rad2deg(deg):.3g}°)" if deg < 3.0 else
+                          f"joint_angle_limits of {deg:.3g}°")
+    if m.stroke_limits is not None:
+        only_stroke = UPSMechanism(m.base, m.platform, m.v0, m.lengths0, stroke_limits=m.stroke_limits,
+                                   travel=m.travel)
+        if _reachable_scale(only_stroke) * TRAVEL_CUT_FACTOR < full:
+            span = min(hi - lo for lo, hi in m.stroke_limits)
+            causes.append(f"stroke_limits spanning {span:.3g} mm (metres typed where mm are expected? "
+                          f"{span:.3g} m = {span * 1e3:.3g} mm)" if span < 1.0 else
+                          f"stroke_limits spanning {span:.3g} mm")
+    cut = f"{full / limited:.3g}×" if limited > 0 else "to nothing"
+    warnings.warn(
+        f"6-UPS geometry: the limits cut the reachable travel {cut} (more than {TRAVEL_CUT_FACTOR:g}×) against "
+        f"the same struts without limits: {'; '.join(causes) or 'the limits together'}", UserWarning, stacklevel=3)
+
+
+_SCALES = 2.0 ** (-np.arange(41) / 4.0)  # 1 … 1/1024 in steps of 19%
+
+
+@jax.jit
+def _reachable_jit(m: UPSMechanism, poses: Array) -> Array:
+    return m.solve_inverse_kinematics(poses).reachable  # jitted: one compilation, not one per op
+
+
+def _reachable_scale(m: UPSMechanism) -> float:
+    """The largest ``s`` of :data:`_SCALES` for which the corners and axis ends of ``s`` × the
+    travel box (default ±1 mm / ±1°) are reachable, and those of every smaller ``s`` (0 if none):
+    one batched inverse kinematics (the bisection of ``reachable_travel`` would compile op by
+    op at each file load)."""
+    import itertools
+
+    from ..calibration._simulation import TRAVEL_MM, TRAVEL_RAD
+
+    half = m.travel_half_widths
+    half = np.array([TRAVEL_MM] * 3 + [TRAVEL_RAD] * 3) if half is None else half
+    unit = np.concatenate([np.array(list(itertools.product((1.0, -1.0), repeat=6))),
+                           np.eye(6), -np.eye(6)]) * half
+    ok = np.asarray(_reachable_jit(m, jnp.asarray(_SCALES[:, None, None] * unit))).all(axis=1)
+    bad = np.flatnonzero(~ok)
+    last_bad = bad.max() if bad.size else -1
+    return float(_SCALES[last_bad + 1]) if last_bad + 1 < len(_SCALES) else 0.0
 
 
 # ---- presets ----------------------------------------------------------------------------------

@@ -46,6 +46,7 @@ from ._hybrid import VSASMCSThenLM as VSASMCSThenLM
 from ._jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
 from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, least_squares as least_squares
 from ._levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
+from ._objective import AbstractOptimiser as AbstractOptimiser, Objective as Objective
 from ._pso import ParticleSwarm as ParticleSwarm, PSOState as PSOState
 from ._result import (
     RESULTS as RESULTS,

@@ -68,6 +68,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 from ._driver import materialize
 from ._levenberg_marquardt import sum_of_squares
+from ._objective import AbstractOptimiser, Objective, needs_residuals
 from ._result import RESULTS, OptimiseResult
 
 
@@ -124,7 +125,7 @@ def check_blocks(blocks: Blocks | tuple | None, m: int, n: int) -> Blocks:
     return Blocks(rows, cols)
 
 
-class BatchedLevenbergMarquardt(eqx.Module):
+class BatchedLevenbergMarquardt(AbstractOptimiser):
     """Hyper-parameters of the batched LM.
 
     - ``max_steps``: iteration budget; each iteration evaluates the residual and its Jacobian
@@ -237,9 +238,27 @@ class BatchedLevenbergMarquardt(eqx.Module):
         done = jnp.all(s.block_done)
         return jax.tree.map(lambda old, nw: jnp.where(done, old, nw), s, new)
 
-    def terminate(self, state: BatchedLMState) -> Bool[Array, ""]:
-        """Every block stopped, or the budget is spent."""
-        return jnp.all(state.block_done) | (state.steps >= self.max_steps)
+    def terminate(self, state: BatchedLMState) -> tuple[Bool[Array, ""], RESULTS]:
+        """Every block stopped (``successful``), or the budget is spent (``max_steps_reached``)."""
+        converged = jnp.all(state.block_done)
+        return converged | (state.steps >= self.max_steps), RESULTS.where(
+            converged, RESULTS.successful, RESULTS.max_steps_reached)
+
+    # ---- the protocol ----------------------------------------------------------------------
+
+    def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
+        """:meth:`run` on ``objective.residuals`` (with its Jacobian and blocks) from ``y0``
+        (unbounded; the budget is ``max_steps``)."""
+        del lower, upper, key, max_evaluations
+        return self.run(needs_residuals(self, objective), y0, args, objective.cost, objective.jacobian,
+                        objective.blocks)
+
+    def solve_batch(self, objective: Objective, y0s, lowers, uppers, keys, args, max_evaluations: int
+                    ) -> OptimiseResult:
+        """:func:`least_squares_batch`: finished problems stop costing (not ``vmap`` of :meth:`solve`)."""
+        del lowers, uppers, keys, max_evaluations
+        return least_squares_batch(needs_residuals(self, objective), self, y0s, args=args, jac=objective.jacobian,
+                                   cost=objective.cost, blocks=objective.blocks)
 
     # ---- the driver of one problem ---------------------------------------------------------
 
@@ -261,7 +280,7 @@ class BatchedLevenbergMarquardt(eqx.Module):
         y0_flat, unravel = ravel_pytree(y0)
         problem = _Problem.make(fn, jac, unravel, jnp.asarray(y0_flat, jnp.float64), args, blocks)
         state = self.init(problem.lineariser(args), problem.y0, problem.blocks)
-        state = lax.while_loop(lambda s: ~self.terminate(s),
+        state = lax.while_loop(lambda s: ~self.terminate(s)[0],
                                lambda s: self.step(problem.lineariser(args), s, problem.blocks), state)
         return _result(state, unravel, args, fn, cost)
 
@@ -429,7 +448,7 @@ def _solve_batch(fn, solver, y0s, args, jac, cost, blocks):
     width = batch if solver.working_set is None else min(batch, solver.working_set)
     # one working set at a time, so that the initial Jacobians of a large batch never all sit in memory
     state = lax.map(lambda ya: init(*ya), (y0_flat, args), batch_size=width)
-    state = _refill_loop(solver.terminate, jax.vmap(step), state, args, batch, width)
+    state = _refill_loop(lambda s: solver.terminate(s)[0], jax.vmap(step), state, args, batch, width)
     return jax.vmap(lambda s, a: _result(s, unravel, a, fn, cost))(state, args)
 
 

@@ -60,7 +60,6 @@ import dataclasses
 import math
 from typing import Literal, NamedTuple
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax

@@ -44,6 +44,7 @@ from jax import lax
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from ._objective import AbstractOptimiser, Objective
 from ._random import draw as draw
 from ._result import RESULTS, OptimiseResult
 
@@ -121,9 +122,13 @@ def population_state(nests, fitness, n_evals, generation, prev: PopulationState 
                            jnp.asarray(generation, jnp.int32))
 
 
-class AbstractSolver(eqx.Module):
-    """A solver: hyper-parameters only. Its state is any pytree with ``best_x``,
-    ``best_f`` and ``n_evals`` attributes."""
+class AbstractSolver(AbstractOptimiser):
+    """An iterative solver over a box, run by :func:`minimise`: hyper-parameters only. Its state
+    is any pytree with ``best_x``, ``best_f`` and ``n_evals`` attributes."""
+
+    def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
+        """:func:`minimise` of ``objective.cost``."""
+        return minimise(objective.cost, self, lower, upper, key, max_evaluations=max_evaluations, y0=y0, args=args)
 
     @abc.abstractmethod
     def init(self, fn, y0, lower, upper, key: PRNGKeyArray) -> Any:
@@ -146,13 +151,17 @@ class AbstractSolver(eqx.Module):
         del history_cost, history_evaluations
         return jnp.asarray(False)
 
-    def finalize(self, fn, state, lower, upper) -> Any:
+    def min_evaluations(self, n_dim: int) -> int:
+        """Initialisation, one step and :meth:`postprocess`."""
+        return self.init_evaluations(n_dim) + self.step_evaluations(n_dim)[1] + self.final_evaluations(n_dim)
+
+    def postprocess(self, fn, state, lower, upper) -> Any:
         """Called once after the scan (default: nothing to do). Counts its own calls."""
         del fn, lower, upper
         return state
 
     def final_evaluations(self, n_dim: int) -> int:
-        """Objective calls made by :meth:`finalize` (reserved from the budget)."""
+        """Objective calls made by :meth:`postprocess` (reserved from the budget)."""
         return 0
 
     @abc.abstractmethod
@@ -426,7 +435,7 @@ def _run(fn, solver, lower, upper, y0, key, max_evaluations, used, skip):
         return state, (state.best_f, state.n_evals)
 
     state, (hist_f, hist_n) = lax.scan(body, state, jax.random.split(k_steps, n_steps))
-    state = solver.finalize(fn, state, lower, upper)
+    state = solver.postprocess(fn, state, lower, upper)
     hist_n = jnp.asarray(hist_n, jnp.int32)
     done, why = solver.terminate(state)
     stalled = solver.converged(hist_f, hist_n)

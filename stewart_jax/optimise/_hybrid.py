@@ -13,18 +13,19 @@ Handbook of Metaheuristics (2003).
 
 from __future__ import annotations
 
-import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import PRNGKeyArray
 
 from ._batched_lm import BatchedLevenbergMarquardt
 from ._driver import minimise
 from ._levenberg_marquardt import LevenbergMarquardt, sum_of_squares
+from ._objective import AbstractOptimiser, Objective
 from ._result import RESULTS, OptimiseResult
 from ._vsa_smcs import VSASMCS
 
 
-class VSASMCSThenLM(eqx.Module):
+class VSASMCSThenLM(AbstractOptimiser):
     """VSA-SMCS (``global_phase``) within ``max_evaluations`` cost evaluations, then LM
     (``local_phase``: :class:`BatchedLevenbergMarquardt` or optimistix's
     :class:`LevenbergMarquardt`) from its best nest.
@@ -34,8 +35,9 @@ class VSASMCSThenLM(eqx.Module):
     cost appended. LM's result is kept only where it improves on the best nest (LM is
     unbounded; it is not clipped to Ω).
 
-    A batch runs :meth:`explore` per problem (vmapped), one batched local solve from the best
-    nests (:func:`~stewart_jax.optimise.least_squares_batch`), and :meth:`combine` per problem.
+    A batch (:meth:`solve_batch`) runs :meth:`explore` per problem (vmapped), the local phase's
+    own batched solve from the best nests (for the batched LM,
+    :func:`~stewart_jax.optimise.least_squares_batch`), and :meth:`combine` per problem.
     """
 
     global_phase: VSASMCS = VSASMCS()
@@ -62,15 +64,28 @@ class VSASMCSThenLM(eqx.Module):
             history_evaluations=jnp.concatenate([g.history_evaluations, n[None]]),
         )
 
+    def min_evaluations(self, n_dim: int) -> int:
+        return self.global_phase.min_evaluations(n_dim)
+
+    def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
+        """The protocol: VSA-SMCS on ``objective.cost`` within ``max_evaluations``, then the local
+        phase's ``solve`` from its best nest."""
+        del y0  # the global phase samples the box
+        g = self.explore(objective.cost, lower, upper, key, max_evaluations, args)
+        return self.combine(g, self.local_phase.solve(objective, g.params, lower, upper, key, args, max_evaluations))
+
+    def solve_batch(self, objective: Objective, y0s, lowers, uppers, keys, args, max_evaluations: int
+                    ) -> OptimiseResult:
+        """The global phase per problem (vmapped), then one batched local solve of every best nest."""
+        g = jax.vmap(lambda lo, hi, k, a: self.explore(objective.cost, lo, hi, k, max_evaluations, a))(
+            lowers, uppers, keys, args)
+        local = self.local_phase.solve_batch(objective, g.params, lowers, uppers, keys, args, max_evaluations)
+        return jax.vmap(self.combine)(g, local)
+
     def run(self, fn, lower, upper, key: PRNGKeyArray, max_evaluations: int, args=None, cost=None, jac=None,
             blocks=None) -> OptimiseResult:
         """Residuals ``fn(y, args)`` over the box ``[lower, upper]`` (arrays); ``cost(y, args)``
         is the global phase's objective and the value reported (default ``Σ fn²``); ``jac`` and
         ``blocks`` go to a :class:`BatchedLevenbergMarquardt` local phase (see its ``run``)."""
         cost_fn = sum_of_squares(fn) if cost is None else cost
-        g = self.explore(cost_fn, lower, upper, key, max_evaluations, args)
-        if isinstance(self.local_phase, BatchedLevenbergMarquardt):
-            lm = self.local_phase.run(fn, g.params, args, cost_fn, jac, blocks)
-        else:
-            lm = self.local_phase.run(fn, g.params, args, cost_fn)
-        return self.combine(g, lm)
+        return self.solve(Objective(cost_fn, fn, jac, blocks), None, lower, upper, key, args, max_evaluations)

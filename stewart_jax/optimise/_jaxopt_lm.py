@@ -11,14 +11,14 @@ reference baseline is :mod:`.levenberg_marquardt` (optimistix).
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax.numpy as jnp
 
 from ._levenberg_marquardt import sum_of_squares
+from ._objective import AbstractOptimiser, Objective, needs_residuals
 from ._result import RESULTS, OptimiseResult
 
 
-class JaxoptLevenbergMarquardt(eqx.Module):
+class JaxoptLevenbergMarquardt(AbstractOptimiser):
     """Hyper-parameters of the jaxopt LM cross-check.
 
     - ``max_steps``: iteration budget (each iteration: one residual vector and one Jacobian).
@@ -43,6 +43,12 @@ class JaxoptLevenbergMarquardt(eqx.Module):
             )
         if self.linear_solver not in ("cholesky", "inv", "cg", "lu", "qr"):
             raise ValueError(f"JaxoptLevenbergMarquardt.linear_solver {self.linear_solver!r} is not a jaxopt solver")
+
+    def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
+        """The protocol: :meth:`run` on ``objective.residuals`` from ``y0`` (unbounded; the budget is
+        ``max_steps``)."""
+        del lower, upper, key, max_evaluations
+        return self.run(needs_residuals(self, objective), y0, args, objective.cost)
 
     def run(self, fn, y0, args=None, cost=None) -> OptimiseResult:
         """Minimise ``Σ fn(y, args)²`` from ``y0``; ``cost(y, args)`` is the value reported

@@ -12,11 +12,11 @@ within a few mm on the paper's problems; the caller can check ``OptimiseResult.p
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax.numpy as jnp
 import optimistix as optx
 from jax.flatten_util import ravel_pytree
 
+from ._objective import AbstractOptimiser, Objective, needs_residuals
 from ._result import RESULTS, OptimiseResult
 
 
@@ -30,7 +30,7 @@ def sum_of_squares(fn):
     return cost
 
 
-class LevenbergMarquardt(eqx.Module):
+class LevenbergMarquardt(AbstractOptimiser):
     """Hyper-parameters of the LM baseline.
 
     - ``rtol``, ``atol``: optimistix's step/cost tolerances (relative, absolute).
@@ -47,6 +47,12 @@ class LevenbergMarquardt(eqx.Module):
             raise ValueError(f"LevenbergMarquardt tolerances must be >= 0, got rtol={self.rtol}, atol={self.atol}")
         if not (int(self.max_steps) == self.max_steps and self.max_steps >= 1):
             raise ValueError(f"LevenbergMarquardt.max_steps must be a positive integer, got {self.max_steps!r}")
+
+    def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
+        """The protocol: :meth:`run` on ``objective.residuals`` from ``y0`` (unbounded; the budget is
+        ``max_steps``)."""
+        del lower, upper, key, max_evaluations
+        return self.run(needs_residuals(self, objective), y0, args, objective.cost)
 
     def run(self, fn, y0, args=None, cost=None) -> OptimiseResult:
         """Minimise ``Σ fn(y, args)²`` from ``y0`` (any pytree). ``cost(y, args)`` is the value

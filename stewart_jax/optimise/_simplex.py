@@ -251,7 +251,7 @@ class NelderMead(AbstractSolver):
         reached = target_reached(self, state)
         return reached | state.converged, RESULTS.where(reached, RESULTS.target_reached, RESULTS.successful)
 
-    def finalize(self, fn, state, lower, upper):
+    def postprocess(self, fn, state, lower, upper):
         # best_f is g, which exceeds f where the best vertex lies outside Ω; report f at the
         # projected best vertex (one more call).
         f = nan_to_inf(fn)(state.best_x)

@@ -24,6 +24,7 @@ trials of the earlier run — and never counts one twice.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -38,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._files import write_text_atomic
+from ..calibration._assessment import GROSS_MISFIT_RATIO
 from ..calibration._methods import METHOD_LABELS as METHOD_LABELS, method_label
 from ..calibration._problem import (
     COMPONENTS,
@@ -243,12 +245,11 @@ def _config_hash(config: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(hashed, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _load_checkpoint(path: str | None, config: dict[str, Any]) -> dict[str, Any]:
-    """``{"trials": {method: {index: result}}, "seconds": {method: [...]}}`` from ``path``
-    (empty when there is none), refusing a file of another run or one that is not a checkpoint."""
-    empty: dict[str, Any] = {"trials": {}, "seconds": {}}
-    if path is None or not os.path.exists(path):
-        return empty
+def _read_checkpoint(path: str, config: dict[str, Any]) -> dict[str, Any]:
+    """The trials and chunk times of the checkpoint at ``path`` (empty when there is none),
+    refusing a file of another run, one that is not a checkpoint, or a damaged trial record."""
+    if not os.path.exists(path):
+        return {"trials": {}, "seconds": {}}
     try:
         with open(path, encoding="utf-8") as f:
             ck = json.load(f)
@@ -263,14 +264,116 @@ def _load_checkpoint(path: str | None, config: dict[str, Any]) -> dict[str, Any]
         raise ValueError(
             f"checkpoint {path} was written by a run with other settings; delete it or use another path"
         )
-    return {"trials": ck["trials"], "seconds": ck.get("seconds", {})}
+    seconds = ck.get("seconds", {})
+    if not isinstance(seconds, dict) or not all(
+        isinstance(v, list) and all(_is_number(x) for x in v) for v in seconds.values()
+    ):
+        raise ValueError(f"checkpoint {path}: its 'seconds' entry is damaged (expected lists of chunk times "
+                         "per method); delete the file to start over")
+    for method, trials in ck["trials"].items():
+        if not isinstance(trials, dict):
+            raise ValueError(f"checkpoint {path}: the trials of method {method!r} are not an object of trial "
+                             "records; delete that method's entry (or the file) and run again to recompute them")
+        history = None
+        for index, record in trials.items():
+            _check_record(path, method, index, record, history)
+            history = len(record["history_cost"])
+    return {"trials": ck["trials"], "seconds": seconds}
 
 
-def _save_checkpoint(path: str | None, config: dict[str, Any], state: dict[str, Any]) -> None:
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _check_record(path: str, method: str, index: str, record: Any, history_length: int | None) -> None:
+    """Raise one ``ValueError`` naming the trial, the fault and the remedy unless ``record``
+    holds every value a trial stores, each of its shape, with finite control errors."""
+    problem = _record_problem(index, record, history_length)
+    if problem:
+        raise ValueError(
+            f"checkpoint {path}: the record of trial {index} of method {method!r} is damaged ({problem}); "
+            f"delete that record (the key \"{index}\" under \"trials\" → \"{method}\") or the whole file, "
+            "and run again: the study recomputes exactly the trials the file lacks")
+
+
+def _record_problem(index: str, record: Any, history_length: int | None) -> str | None:
+    if not (isinstance(index, str) and index.isdigit()):
+        return "its key is not a trial index (a whole number >= 0)"
+    if not isinstance(record, dict):
+        return f"it is a {type(record).__name__}, not an object"
+    missing = [k for k in PER_TRIAL_KEYS if k not in record]
+    if missing:
+        return f"missing {missing}"
+    for key in ("calibration", "validation"):
+        v = record[key]
+        if not (isinstance(v, list) and len(v) == 6 and all(_is_number(x) for x in v)):
+            return f"'{key}' must be six numbers (µm, µm, µm, ″, ″, ″), got {v!r}"
+        if record["fk_ok"] is True and not all(np.isfinite(v)):
+            return f"'{key}' holds NaN or infinity: {v!r}"
+    if not isinstance(record["fk_ok"], bool):
+        return f"'fk_ok' must be true or false, got {record['fk_ok']!r}"
+    if not _is_number(record["cost"]) or np.isnan(record["cost"]):
+        return f"'cost' must be a number, got {record['cost']!r}"
+    for key in ("n_evaluations", "status"):
+        if not (isinstance(record[key], int) and not isinstance(record[key], bool) and record[key] >= 0):
+            return f"'{key}' must be a whole number >= 0, got {record[key]!r}"
+    hc, he = record["history_cost"], record["history_evaluations"]
+    if not (isinstance(hc, list) and all(_is_number(x) for x in hc)):
+        return "'history_cost' must be a list of numbers"
+    if not (isinstance(he, list) and len(he) == len(hc) and all(_is_number(x) for x in he)):
+        return "'history_evaluations' must be a list of numbers as long as 'history_cost'"
+    if history_length is not None and len(hc) != history_length:
+        return f"its history has {len(hc)} entries, the method's other trials {history_length}"
+    return None
+
+
+def _load_checkpoint(path: str | None, config: dict[str, Any]) -> dict[str, Any]:
+    """``{"trials": {method: {index: result}}, "seconds": {method: [...]}}`` from ``path``
+    (empty when there is none), refusing a file of another run, one that is not a checkpoint
+    or a damaged trial record."""
+    if path is None:
+        return {"trials": {}, "seconds": {}}
+    with _checkpoint_lock(path):
+        return _read_checkpoint(path, config)
+
+
+@contextlib.contextmanager
+def _checkpoint_lock(path: str):
+    """An exclusive lock on ``path + ".lock"`` (``fcntl.lockf``: POSIX record locks, which NFS
+    carries between hosts) for a read–merge–write of the checkpoint; waits for the holder."""
+    import fcntl
+
+    with open(f"{path}.lock", "a") as f:
+        fcntl.lockf(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.lockf(f, fcntl.LOCK_UN)
+
+
+def _save_checkpoint(path: str | None, config: dict[str, Any], state: dict[str, Any],
+                     new_seconds: dict[str, list[float]]) -> None:
+    """Merge this run's trials into the file at ``path`` under the lock and write it atomically.
+
+    NOTE: hosts (or processes) that share one checkpoint each re-read it under the lock and add
+    their own trials, so no host's write drops another's finished trials; a trial in both keeps
+    the file's record (same key, same numbers to rounding). ``new_seconds`` (this run's chunk
+    times not yet saved) are appended to the file's and then emptied."""
     if path is None:
         return
-    write_text_atomic(path, json.dumps({"version": _CHECKPOINT_VERSION, "config_hash": _config_hash(config),
-                                        "config": config, **state}))
+    with _checkpoint_lock(path):
+        disk = _read_checkpoint(path, config)
+        for method, trials in disk["trials"].items():
+            mine = state["trials"].setdefault(method, {})
+            for index, record in trials.items():
+                mine.setdefault(index, record)
+        for method, secs in new_seconds.items():
+            disk["seconds"].setdefault(method, []).extend(secs)
+            secs.clear()
+        state["seconds"] = disk["seconds"]
+        write_text_atomic(path, json.dumps({"version": _CHECKPOINT_VERSION, "config_hash": _config_hash(config),
+                                            "config": config, "trials": state["trials"],
+                                            "seconds": state["seconds"]}))
 
 
 def _check_study_args(methods, n_trials, plan, sigma_um, sigma_arcsec, half_width, chunk_size, n_devices,
@@ -326,11 +429,18 @@ def run_study(
     ``result["rows"][label]`` holds, for the calibration poses (``"calibration"``) and the
     validation poses (``"validation"``), the median and 90th percentile over trials of the
     per-trial max error (and the per-trial values with ``keep_trials``), plus the method's
-    cost, evaluation count, status counts, wall time and median convergence history.
+    cost, evaluation count, status counts, wall time and median convergence history, and for
+    every method the median over trials of the RMS stroke residual over the stroke noise the
+    stated pose noise causes (``residual_to_noise_median``; ≈ 1 or below when the nominal model
+    can explain the data) and ``gross_misfit_trials``, the trials above
+    :data:`~stewart_jax.calibration._assessment.GROSS_MISFIT_RATIO` (not with ``tracker``);
+    ``result["warnings"]`` says which methods had any.
 
     ``chunk_size`` trials are computed at a time (default: all at once); with ``checkpoint``
     each finished trial is saved under its index after every chunk, and a repeated run
     computes only the trials the file lacks (any chunk size; more trials extend the study).
+    Processes sharing one checkpoint merge their trials into it under a file lock; a damaged
+    trial record is refused, naming the trial.
     ``n_devices > 1`` splits each chunk's trials into one block per local JAX device (the
     chunk is padded to a multiple of ``n_devices``); the blocks run concurrently.
 
@@ -366,30 +476,57 @@ def run_study(
     chunk = chunk_size or n_trials
     keys = trial_keys(seed, n_trials, first_trial)
     state = _load_checkpoint(checkpoint, config)
+    unsaved: dict[str, list[float]] = {}
     indices = [str(first_trial + i) for i in range(n_trials)]
     rows: dict[str, Any] = {}
+    warnings: list[str] = []
+    noise_mm = 0.0 if tracker else _stroke_noise_rms_mm(nominal, sigma_um, sigma_arcsec)
+    n_poses = 8 if plan == "paper8" else 120
     for method in [BEFORE, *methods]:
         calibrate = _calibrator(method, json.dumps(options.get(method, {}), sort_keys=True), n_devices)
-        done = state["trials"].setdefault(method, {})
-        seconds = state["seconds"].setdefault(method, [])
+        seconds: list[float] = []
         for start in range(0, n_trials, chunk):
             stop = min(start + chunk, n_trials)
-            todo = [i for i in range(start, stop) if indices[i] not in done]
+            todo = [i for i in range(start, stop) if indices[i] not in state["trials"].get(method, {})]
             if not todo:
                 continue
             out = _run_chunk(method, calibrate, keys[np.asarray(todo)], nominal, actual, travel, config, n_devices)
+            done = state["trials"].setdefault(method, {})
             for j, i in enumerate(todo):
                 done[indices[i]] = {k: out[k][j] for k in PER_TRIAL_KEYS}
             seconds.append(out["seconds"])
-            _save_checkpoint(checkpoint, config, state)
+            unsaved.setdefault(method, []).append(out["seconds"])
+            _save_checkpoint(checkpoint, config, state, unsaved)
             if method != BEFORE:
                 log(f"  {method}: trials {stop}/{n_trials} ({out['seconds']:.1f} s for {len(todo)} trials)")
+        done = state["trials"].get(method, {})
         merged = {k: [done[i][k] for i in indices] for k in PER_TRIAL_KEYS}
         label = "Before calibration" if method == BEFORE else method_label(method)
-        rows[label] = _row(method, options.get(method, {}), merged, seconds, keep_trials)
+        all_seconds = state["seconds"].get(method, []) if checkpoint else seconds
+        rows[label] = _row(method, options.get(method, {}), merged, all_seconds, keep_trials)
+        if method != BEFORE and noise_mm > 0:
+            ratio = np.sqrt(np.asarray(merged["cost"], np.float64) / (6 * n_poses)) / noise_mm
+            gross = int(np.sum(~(ratio <= GROSS_MISFIT_RATIO)))
+            rows[label].update(residual_to_noise_median=float(np.median(ratio)), gross_misfit_trials=gross)
+            if gross:
+                warnings.append(
+                    f"{method}: {gross} of {n_trials} trials end with stroke residuals above {GROSS_MISFIT_RATIO:g}× "
+                    f"the stated noise (median {np.median(ratio):.3g}×): a gross misfit — the nominal geometry "
+                    "cannot explain the true mechanism's data (the wrong geometry or parameter set, a unit slip "
+                    "in a geometry file) or the method did not converge")
+                log(f"WARNING: {warnings[-1]}")
     return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
-            "n_devices": n_devices, "rows": rows,
+            "n_devices": n_devices, "rows": rows, "warnings": warnings,
             "paper_table2": PAPER_TABLE2 if paper else None}
+
+
+def _stroke_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
+    """RMS (mm) of the reading noise the pose noise causes at the zero pose: the scale against
+    which a trial's RMS residual ``sqrt(S / 6m)`` is a gross misfit (0 without noise)."""
+    from ..calibration._identifiability import pose_noise_covariance, stroke_noise_covariance
+
+    cov = stroke_noise_covariance(nominal, jnp.zeros((1, 6)), pose_noise_covariance(sigma_um, sigma_arcsec))
+    return float(np.sqrt(np.trace(np.asarray(cov)[0]) / 6))
 
 
 def _row(method, options, merged, seconds, keep_trials) -> dict[str, Any]:
