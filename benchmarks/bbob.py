@@ -382,6 +382,7 @@ def postprocess(folders: list[str]) -> str | None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cocopp.genericsettings.isConv = False
+        cocopp.genericsettings.figure_file_formats = ["png"]  # a tenth of the SVGs' size, to commit
         cocopp.main(["-o", out, "--no-interactive", *folders])
     return out
 
