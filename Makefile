@@ -44,6 +44,7 @@ docs: $(STAMP)
 bench-deps: $(STAMP)
 	$(BIN)/python -m pip install --quiet pandas requests Pillow
 	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
+	$(BIN)/python -m pip install --quiet coco-experiment cocopp six cma pyswarms
 
 bench: bench-deps
 	$(BIN)/python benchmarks/kinematics.py
@@ -56,6 +57,7 @@ bench: bench-deps
 	$(BIN)/python benchmarks/sharding.py
 	$(BIN)/python benchmarks/tracker_points.py
 	$(BIN)/python benchmarks/tracker_points.py --timing
+	$(BIN)/python benchmarks/bbob.py
 
 clean:
 	rm -rf $(VENV) build site *.egg-info
