@@ -98,11 +98,12 @@ def baseline_runs():
 def test_cma_es_solves_a_rotated_ill_conditioned_ellipsoid(baseline_runs):
     cost = baseline_runs["cma-es"][0]
     # Condition number 1e6, not axis-aligned: only an adapted covariance gets there in 6000 calls.
-    # Measured over 64 seeds: every run reaches 1e-10, in 2 431 calls in median and 5 194 at most
-    # (pycma: 2 268 and 4 581 over 32 seeds), so 19 of 20 leaves room for an unlucky seed on any
-    # machine while a CMA-ES that adapts its covariance half as well fails it.
-    assert np.sum(cost[0] < 1e-10) >= CMA_SEEDS - 1, cost[0]
-    assert np.sum(cost[1] < 1e-10) >= CMA_SEEDS - 1, cost[1]
+    # Measured over 64 seeds: 63 reach 1e-10 within 6000 calls, 2 404 in median, 3 558 at the 90th
+    # percentile (pycma: 2 268 in median over 32 seeds). With a failure rate of ~1/64, 18 of 20
+    # fails with a probability of 0.3 % on any machine, while a CMA-ES that adapts its covariance
+    # half as well (the previous one: 38 of 64 within 6000) fails it.
+    assert np.sum(cost[0] < 1e-10) >= CMA_SEEDS - 2, cost[0]
+    assert np.sum(cost[1] < 1e-10) >= CMA_SEEDS - 2, cost[1]
 
 
 def test_cma_es_is_as_sample_efficient_as_pycma():
@@ -124,7 +125,7 @@ def test_cma_es_is_as_sample_efficient_as_pycma():
         assert es.result.fbest <= target
         ref.append(es.result.evaluations)
     ratio = float(np.median(np.asarray(ours.n_evaluations))) / float(np.median(ref))
-    # Measured: 2 431 / 2 268 = 1.07 (64 and 32 seeds). The median of 20 runs scatters by about
+    # Measured: 2 404 / 2 268 = 1.06 (64 and 32 seeds). The median of 20 runs scatters by about
     # ±15 % on each side, so 1.4 holds on any machine, while the projection-and-penalty CMA-ES
     # without active update this replaced (4 825, ratio 2.1) fails it.
     assert ratio < 1.4, (ratio, np.median(np.asarray(ours.n_evaluations)), np.median(ref))
