@@ -90,12 +90,10 @@ def parse_degrees(text: str) -> float:
     return float(_DEC.divide(_DEC.multiply(Decimal(text.strip()), _PI), Decimal(180)))
 
 
-def read_csv_columns(
-    path: str | os.PathLike[str], degree_columns: tuple[str, ...] = ()
-) -> dict[str, np.ndarray]:
-    """Every column of a CSV file as float64 arrays, with a clear error for a ragged or
-    non-numeric cell (naming row and column). ``degree_columns`` are returned in radians,
-    converted by :func:`parse_degrees`."""
+
+def csv_rows(path) -> tuple[list[list[str]], list[str]]:
+    """The rows of a CSV file and its stripped header, with a clear error for a folder, text that
+    is not UTF-8 or an empty file."""
     if os.path.isdir(path):
         raise ValueError(f"{path} is a folder, not a CSV file")
     try:
@@ -106,7 +104,15 @@ def read_csv_columns(
         raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start}); save the CSV as UTF-8") from None
     if not rows:
         raise ValueError(f"{path}: empty file (expected a header row)")
-    header = [h.strip() for h in rows[0]]
+    return rows, [h.strip() for h in rows[0]]
+
+def read_csv_columns(
+    path: str | os.PathLike[str], degree_columns: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
+    """Every column of a CSV file as float64 arrays, with a clear error for a ragged or
+    non-numeric cell (naming row and column). ``degree_columns`` are returned in radians,
+    converted by :func:`parse_degrees`."""
+    rows, header = csv_rows(path)
     repeated = sorted({h for h in header if header.count(h) > 1})
     if repeated:
         raise ValueError(f"{path}: column(s) {repeated} appear more than once in the header")

@@ -35,7 +35,6 @@ test all come from the whitened Jacobian ``J_W``.
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 from typing import NamedTuple
@@ -52,7 +51,7 @@ from .._units import UM
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._assessment import FIT_P_VALUE, IDENTIFIABLE_TOL, RANK_RTOL, CalibrationAssessment
-from ._csv import STROKE_COLUMNS
+from ._csv import STROKE_COLUMNS, csv_rows
 
 POINT_COLUMNS = ("pose", "target", *STROKE_COLUMNS, "x", "y", "z")
 """The columns a points file must have (``pose`` = ``ref`` on a base reference's row)."""
@@ -157,16 +156,7 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets) -> Po
     references, and coordinates in metres (distances between targets 1000× shorter than their
     nominal ones).
     """
-    if os.path.isdir(path):
-        raise ValueError(f"{path} is a folder, not a CSV file")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            rows = list(csv.reader(f))
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start}); save the CSV as UTF-8") from None
-    if not rows:
-        raise ValueError(f"{path}: empty file (expected a header row)")
-    header = [h.strip() for h in rows[0]]
+    rows, header = csv_rows(path)
     missing = [c for c in POINT_COLUMNS if c not in header]
     if missing:
         raise ValueError(f"{path}: missing column(s) {missing}; a points file has {list(POINT_COLUMNS)}")
