@@ -417,9 +417,9 @@ def markdown(cases, sp, versions):
               f"sampled every {fd['sample_dt_s']:g} s, cabin displaced by {fd['displacement']} (m, rad); "
               f"multi-channel matrix pencil on the cabin's six coordinates (orders {fd['pencil_order_ours']} ours, "
               f"{fd['pencil_order_moordyn']} MoorDyn). Every mode below the cut-off with a cabin kinetic-energy "
-              "share above 0.1 %; '(merged)' where the fitted pole nearest the mode is nearer another listed mode "
-              "(a cluster closer than the record resolves, fitted as one pole); '—' where the decay shows "
-              "no pole of amplitude ≥ 0.2 % of the displacement near it. "
+              "share above 0.1 %; '(merged)' where the pole nearest the mode is nearer another listed mode in either "
+              "record (a cluster closer than the record resolves, fitted as one pole; no difference shown); "
+              "'—' where the decay shows no pole of amplitude ≥ 0.2 % of the displacement near it. "
               f"The records are low-passed (Kaiser FIR) and decimated to {fd['fit_sample_dt_s']:g} s "
               "before the fit.", "",
               "| mode | eigen (Hz) | cabin share | next mode apart (Hz) | ours decay (Hz) | MoorDyn decay (Hz) "
@@ -428,13 +428,21 @@ def markdown(cases, sp, versions):
         for r in c["modes"]:
             def g(x, fmt):
                 return "—" if x is None else format(x, fmt)
-            mark = "" if r["resolved"] else " (merged)"
-            L.append(f"| {r['mode']} | {r['eigen_hz']:.6f} | {r['cabin_energy_share']:.3f} | "
-                     f"{r['nearest_other_mode_hz_apart']:.1e} | {g(r['ours_free_decay_hz'], '.6f')}{mark} | "
-                     f"{g(r['moordyn_free_decay_hz'], '.6f')} | "
-                     f"{g(r['moordyn_vs_eigen'], '+.2e')} | {g(r['ours_decay_vs_eigen'], '+.2e')} | "
-                     f"{g(r['moordyn_vs_ours_decay'], '+.2e')} | "
+            res = r["resolved"]
+
+            def d(x, res=res):
+                return g(x, "+.2e") if res else "—"
+            L.append(f"| {r['mode']}{'' if res else ' (merged)'} | {r['eigen_hz']:.6f} | "
+                     f"{r['cabin_energy_share']:.3f} | {r['nearest_other_mode_hz_apart']:.1e} | "
+                     f"{g(r['ours_free_decay_hz'], '.6f')} | {g(r['moordyn_free_decay_hz'], '.6f')} | "
+                     f"{d(r['moordyn_vs_eigen'])} | {d(r['ours_decay_vs_eigen'])} | {d(r['moordyn_vs_ours_decay'])} | "
                      f"{g(None if r['moordyn_amplitude_m'] is None else r['moordyn_amplitude_m'] * 1e9, '.1f')} |")
+        ok = [r for r in c["modes"] if r["resolved"]]
+        if ok:
+            L += ["", f"Resolved modes ({len(ok)} of {len(c['modes'])}): largest |MoorDyn − ours decay| "
+                  f"{max(abs(r['moordyn_vs_ours_decay']) for r in ok):.1e}, |MoorDyn − eigen| "
+                  f"{max(abs(r['moordyn_vs_eigen']) for r in ok):.1e}, |ours decay − eigen| "
+                  f"{max(abs(r['ours_decay_vs_eigen']) for r in ok):.1e} (relative)."]
     L += ["", f"## Speed at N = {sp['segments']}, dt = {sp['dt_s']:g} s ({sp['simulated_s']:g} s simulated)", "",
           "| run | wall (s) | simulated s per wall s (per position) |", "|---|---|---|",
           f"| MoorDyn RK2 (its default), one system | {sp['moordyn_RK2_wall_s']:.2f} | "
