@@ -29,7 +29,8 @@ own record) by their values, replaced by the displaced pose, and deserialised. T
 the static solution, exactly as ``simulate_lumped``'s ``displacement`` of the cabin coordinates
 alone. A check after the edit reads the body back through ``GetBodyState``.
 
-Usage: ``.venv/bin/python benchmarks/fast_moordyn.py [--segments 10] [--duration 40] [--dt 1e-3]``
+Usage: ``.venv/bin/python benchmarks/fast_moordyn.py [--segments 10] [--duration 120] [--dt 1e-3]
+[--speed-segments 5 10 20]``
 (needs ``pip install moordyn``; ``make bench-deps``). Writes
 ``benchmarks/results/fast_moordyn.{json,md}``.
 """
@@ -161,10 +162,11 @@ class MoorDynRun:
             fh.write(text)
         self.n = n_segments
         self.position, self.R = np.asarray(position, float), np.asarray(R, float)
-        fd = os.dup(1)
+        sys.stdout.flush()
+        fd, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
         try:
             if quiet:  # MoorDyn-C prints its input echo and progress on stdout
-                os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+                os.dup2(null, 1)
             self.sys = moordyn.Create(path)
             t0 = time.perf_counter()
             err = moordyn.Init(self.sys, [], [])
@@ -172,6 +174,7 @@ class MoorDynRun:
         finally:
             os.dup2(fd, 1)
             os.close(fd)
+            os.close(null)
         if err != 0:
             raise RuntimeError(f"MoorDyn's initialisation failed with code {err}")
         self.body = moordyn.GetBody(self.sys, 1)
@@ -387,9 +390,9 @@ def speed(n, dt, duration, n_batch):
     return out
 
 
-def markdown(cases, sp, versions):
+def markdown(cases, speeds, versions, n):
     L = ["# FAST cabin on lumped-mass cables: stewart_jax against MoorDyn v2", "",
-         f"MoorDyn-C {versions['moordyn']} (PyPI `moordyn`); N = {sp['segments']} segments per cable, "
+         f"MoorDyn-C {versions['moordyn']} (PyPI `moordyn`); N = {n} segments per cable, "
          "no hydrodynamics (Cd = Ca = 0, water density 0), no bending stiffness or internal damping, "
          "g = 9.8 m/s², the cabin assembly as one free body (principal inertias and axes), level cabin.", ""]
     L += ["## Statics: MoorDyn's static solve against `lumped_statics`", "",
@@ -443,17 +446,23 @@ def markdown(cases, sp, versions):
                   f"{max(abs(r['moordyn_vs_ours_decay']) for r in ok):.1e}, |MoorDyn − eigen| "
                   f"{max(abs(r['moordyn_vs_eigen']) for r in ok):.1e}, |ours decay − eigen| "
                   f"{max(abs(r['ours_decay_vs_eigen']) for r in ok):.1e} (relative)."]
-    L += ["", f"## Speed at N = {sp['segments']}, dt = {sp['dt_s']:g} s ({sp['simulated_s']:g} s simulated)", "",
-          "| run | wall (s) | simulated s per wall s (per position) |", "|---|---|---|",
-          f"| MoorDyn RK2 (its default), one system | {sp['moordyn_RK2_wall_s']:.2f} | "
-          f"{sp['moordyn_RK2_sim_s_per_s']:.2f} |",
-          f"| MoorDyn RK4, one system | {sp['moordyn_RK4_wall_s']:.2f} | {sp['moordyn_RK4_sim_s_per_s']:.2f} |",
-          f"| ours (velocity Verlet), one position | {sp['ours_one_wall_s']:.2f} | {sp['ours_one_sim_s_per_s']:.2f} |",
-          f"| ours, {sp['batch']} positions in one vmap | {sp['ours_batch_wall_s']:.2f} | "
-          f"{sp['ours_batch_sim_s_per_s_per_position']:.2f} |", "",
-          f"Compile + first run (not in the table): one position {sp['ours_compile_plus_first_s']:.1f} s, batch "
-          f"{sp['ours_batch_compile_plus_first_s']:.1f} s. Integrators differ: velocity Verlet evaluates the "
-          "forces once per step, RK2 twice, RK4 four times; MoorDyn is driven from Python in 0.1 s calls."]
+    sp0 = speeds[0]
+    L += ["", f"## Speed at dt = {sp0['dt_s']:g} s ({sp0['simulated_s']:g} s simulated, the same free decay)", "",
+          "Simulated seconds per wall-clock second, per position (wall time in s in brackets).", "",
+          "| N | degrees of freedom | MoorDyn RK2 (its default) | MoorDyn RK4 | ours, one position "
+          f"| ours, {sp0['batch']} positions in one vmap | ours compile + first run (s), one / batch |",
+          "|---|---|---|---|---|---|---|"]
+    for sp in speeds:
+        L.append(f"| {sp['segments']} | {6 + 18 * (sp['segments'] - 1)} | "
+                 f"{sp['moordyn_RK2_sim_s_per_s']:.1f} ({sp['moordyn_RK2_wall_s']:.2f}) | "
+                 f"{sp['moordyn_RK4_sim_s_per_s']:.1f} ({sp['moordyn_RK4_wall_s']:.2f}) | "
+                 f"{sp['ours_one_sim_s_per_s']:.1f} ({sp['ours_one_wall_s']:.2f}) | "
+                 f"{sp['ours_batch_sim_s_per_s_per_position']:.1f} ({sp['ours_batch_wall_s']:.2f}) | "
+                 f"{sp['ours_compile_plus_first_s']:.1f} / {sp['ours_batch_compile_plus_first_s']:.1f} |")
+    L += ["", "Integrators differ: velocity Verlet evaluates the forces once per step, RK2 twice, RK4 four "
+          "times; MoorDyn is driven from Python in 0.1 s calls. Ours multiplies by a dense M⁻¹ and a dense "
+          "modal damping matrix every step (O(n²) in the n degrees of freedom), MoorDyn's per-node "
+          "update is O(n)."]
     return "\n".join(L)
 
 
@@ -466,6 +475,7 @@ def main(argv=None):
     ap.add_argument("--cutoff-hz", type=float, default=0.45)
     ap.add_argument("--speed-duration", type=float, default=10.0)
     ap.add_argument("--batch", type=int, default=8)
+    ap.add_argument("--speed-segments", type=int, nargs="+", default=[5, 10, 20])
     ap.add_argument("--positions", type=int, default=len(POSITIONS), help="how many of the two positions")
     args = ap.parse_args(argv)
     from importlib.metadata import version
@@ -473,9 +483,10 @@ def main(argv=None):
     versions = {"moordyn": version("moordyn")}
     cases = [modes_case(p, args.segments, args.dt, args.duration, args.sample_dt, args.cutoff_hz)
              for p in POSITIONS[:args.positions]]
-    sp = speed(args.segments, args.dt, args.speed_duration, args.batch)
-    md = markdown(cases, sp, versions)
-    write_results("fast_moordyn", {"versions": versions, "cases": cases, "speed": sp}, md)
+    speeds = [speed(n, args.dt, args.speed_duration, args.batch) for n in args.speed_segments]
+    md = markdown(cases, speeds, versions, args.segments)
+    write_results("fast_moordyn", {"versions": versions, "segments": args.segments, "cases": cases,
+                                   "speed": speeds}, md)
     print(md)
 
 
