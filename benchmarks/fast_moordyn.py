@@ -110,9 +110,9 @@ def _quat(R):
     return np.array([(R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w), w])
 
 
-def moordyn_input(position, R, s0, n_segments, dt, scheme="RK4"):
+def moordyn_input(position, R, s0, n_segments, dt, scheme="RK4", thresh_ic=1e-9):
     """The MoorDyn v2 input file of the cabin at ``position``/``R`` on six lines of unstretched
-    lengths ``s0``, ``n_segments`` each."""
+    lengths ``s0``, ``n_segments`` each; ``thresh_ic``: MoorDyn's static-solve tolerance."""
     m, com, lam, Q = rigid_body(position, R)
     e = np.rad2deg(_euler_xyz(Q))
     anchors_g = np.asarray(position) + np.asarray(PARAMS.anchors) @ np.asarray(R).T
@@ -142,7 +142,7 @@ def moordyn_input(position, R, s0, n_segments, dt, scheme="RK4"):
     lines += [f"{i + 1} cable {i + 1} {i + 7} {f(s0[i])} {n_segments} -" for i in range(6)]
     lines += ["---------------------- OPTIONS ----------------------",
               "0 writeLog", f"{f(dt)} dtM", f"{scheme} tScheme", f"{f(g)} g", "0.0 rho", "10 WtrDpth",
-              "1e-9 threshIC", "900 TmaxIC", "1 disableOutput", "1 disableOutTime",
+              f"{f(thresh_ic)} threshIC", "900 TmaxIC", "1 disableOutput", "1 disableOutTime",
               "---------------------- OUTPUTS ----------------------",
               "---------------------- END ----------------------"]
     return "\n".join(lines) + "\n", (m, com, lam, Q)
@@ -151,11 +151,11 @@ def moordyn_input(position, R, s0, n_segments, dt, scheme="RK4"):
 class MoorDynRun:
     """A MoorDyn system of the cabin (created, initialised by MoorDyn's static solve)."""
 
-    def __init__(self, position, R, s0, n_segments, dt, scheme="RK4", quiet=True):
+    def __init__(self, position, R, s0, n_segments, dt, scheme="RK4", quiet=True, thresh_ic=1e-9):
         import moordyn
 
         self.md = moordyn
-        text, self.body0 = moordyn_input(position, R, s0, n_segments, dt, scheme)
+        text, self.body0 = moordyn_input(position, R, s0, n_segments, dt, scheme, thresh_ic)
         self.dir = tempfile.mkdtemp(prefix="stewart_jax_moordyn_")
         path = os.path.join(self.dir, "cabin.txt")
         with open(path, "w") as fh:
