@@ -42,7 +42,7 @@ docs: $(STAMP)
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 bench-deps: $(STAMP)
-	$(BIN)/python -m pip install --quiet pandas requests Pillow
+	$(BIN)/python -m pip install --quiet pandas requests Pillow moordyn
 	$(BIN)/python -m pip install --quiet --no-deps mealpy==3.0.3 opfunu
 	$(BIN)/python -m pip install --quiet coco-experiment cocopp six cma pyswarms
 
@@ -52,6 +52,7 @@ bench: bench-deps
 	$(BIN)/python benchmarks/table2.py
 	$(BIN)/python benchmarks/comparison.py
 	$(BIN)/python benchmarks/fast.py
+	$(BIN)/python benchmarks/fast_moordyn.py
 	$(BIN)/python benchmarks/discrepancy.py
 	$(BIN)/python benchmarks/identifiability.py
 	$(BIN)/python benchmarks/sharding.py

@@ -15,7 +15,7 @@ Goupee 2015) against the quasi-static elastic catenaries of Yin J., Jiang P., Ch
   Table 2 with quasi-static and with lumped cables side by side (level cabin where feasible,
   else the smallest feasible tilt, as ``fast_modes.py``).
 
-Not in this script (yet): the comparison with MoorDyn itself.
+The comparison with MoorDyn itself (statics, modes from free decays, speed) is ``fast_moordyn.py``.
 
 Usage: ``.venv/bin/python benchmarks/fast_cable_dynamics.py [--quick] [--segments N]`` (the
 committed results: ``--segments 10``). Writes
