@@ -229,7 +229,7 @@ def _check_budget(max_evaluations: int, solver=None, problem: CalibrationProblem
         fixed = solver.min_evaluations(n)
         if fixed > max_evaluations:
             raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} cost evaluations that "
-                             f"{type(solver).__name__} needs to initialise and take one step on {n} parameters")
+                             f"{type(solver).__name__} needs to initialise on {n} parameters")
     return int(max_evaluations)
 
 

@@ -152,8 +152,9 @@ class AbstractSolver(AbstractOptimiser):
         return jnp.asarray(False)
 
     def min_evaluations(self, n_dim: int) -> int:
-        """Initialisation, one step and :meth:`postprocess`."""
-        return self.init_evaluations(n_dim) + self.step_evaluations(n_dim)[1] + self.final_evaluations(n_dim)
+        """Initialisation and :meth:`postprocess` (a budget that allows no step reports the best
+        initial point, status ``max_steps_reached``)."""
+        return self.init_evaluations(n_dim) + self.final_evaluations(n_dim)
 
     def postprocess(self, fn, state, lower, upper) -> Any:
         """Called once after the scan (default: nothing to do). Counts its own calls."""
