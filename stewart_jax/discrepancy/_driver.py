@@ -7,12 +7,18 @@
    output how the held-out residuals depend on the factors ("where").
 2. **Name.** Fit base + each candidate effect on the training part; per candidate:
    likelihood-ratio test against the base model with the effect's *identifiable* degrees of
-   freedom, BIC, held-out χ², and how much of its signature the base parameters absorb. Name
-   the best significant candidate; candidates that the data cannot reject against the named one
-   (encompassing test, Mizon and Richard 1986, "The encompassing principle and its application
-   to testing non-nested hypotheses", Econometrica 54) are ``indistinguishable_from``.
+   freedom, BIC, held-out χ², and how much of its signature the base parameters absorb. A
+   candidate *explains* the discrepancy when it is significant and the augmented model passes
+   the same held-out test that detected the discrepancy, at the same ``alpha``; only such a
+   candidate is named (the best by BIC). A significant candidate that does not pass is a
+   *partial* explanation, reported with the share of the gap it removes; a candidate the base
+   parameters absorb completely is reported with the base parameters that absorb it.
+   Candidates that the data cannot reject against the named one (encompassing test, Mizon and
+   Richard 1986, "The encompassing principle and its application to testing non-nested
+   hypotheses", Econometrica 54) are ``indistinguishable_from``.
 3. **Add.** The named effect's fit is the augmented model (:class:`FittedModel`), usable for
-   control (:meth:`FittedModel.commanded`).
+   control (:meth:`FittedModel.commanded`). When nothing explains the gap, the base model stays
+   the fitted one (an open search of terms is in ``_discovery.py``).
 4. **Show.** Held-out residual RMS before/after against the noise floor, derived errors
    (6-PSS: pose errors) before/after, the "where" analysis after the fix.
 
@@ -35,7 +41,7 @@ from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p, noise_scale2, where_analysis
-from ._subspace import absorption, basis, n_identifiable, prediction_factor, rank
+from ._subspace import absorbing_params, absorption, base_param_names, basis, n_identifiable, prediction_factor, rank
 
 MIN_DOF = 6
 """Fewest residual degrees of freedom a fit must keep (data rows × outputs − parameters)."""
@@ -211,7 +217,9 @@ def diagnose_many(
             dec = decisions[b]
             dec = dataclasses.replace(dec, pairs={c: float(chi2_pairs[b, j]) for bb, j, c in jobs if bb == b})
             outcome = _pair_tests(dec, np.asarray(fits.jac_tr[b]), slices, nb, known)
-            dominating = [c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level]
+            dominating = [
+                c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level and dec.cands[c].explains
+            ]
             dominating = [c for c in dominating if c not in visited[b]]
             if dominating:
                 dec = dataclasses.replace(dec, named_index=max(dominating, key=lambda c: dec.cands[c].score))
@@ -288,9 +296,13 @@ def _decide(
     testable = [i for i, c in enumerate(partial) if c["identifiable_rank"] > 0]
     level = alpha / max(len(testable), 1)
     significant = tuple(i for i in testable if partial[i]["p_value"] < level)
-    cands = tuple(Candidate(significant=i in significant, **c) for i, c in enumerate(partial))
+    cands = tuple(
+        Candidate(significant=i in significant, explains=i in significant and c["heldout_p"] >= alpha, **c)
+        for i, c in enumerate(partial)
+    )
     detected = bool(p_detect < alpha)
-    named = max(significant, key=lambda i: cands[i].score) if (detected and significant) else None
+    explaining = [i for i in significant if cands[i].explains]
+    named = max(explaining, key=lambda i: cands[i].score) if (detected and explaining) else None
     return _Decision(
         cands=cands,
         significant=significant,
@@ -344,6 +356,7 @@ def _finish(
     skipped: list[SkippedEffect],
 ) -> DiagnosisReport:
     cands, chi2, rank_g = dec.cands, dec.chi2, dec.rank_g
+    slices = effect_slices(model, effects)
     jac_tr = np.asarray(fits.jac_tr[b])
     a = dec.named_index
     indist, additional = [], []
@@ -387,8 +400,25 @@ def _finish(
         return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
 
     factors = model.factors(test)
+    gap_before = float(np.sqrt(np.mean(before**2)))
+    excess = gap_before**2 - floor_pred**2
+    cands = tuple(
+        dataclasses.replace(c, gap_share=float((gap_before**2 - c.heldout_rms**2) / excess) if excess > 0 else 0.0)
+        for c in cands
+    )
     ranking = sorted(cands, key=lambda c: (c.identifiable_rank > 0, c.score), reverse=True)
     absorbed = [c.effect for c in cands if c.identifiable_rank == 0]
+    names = base_param_names(model)
+    absorbed_by = {
+        effects[i].name: absorbing_params(jac_tr[:, :nb], jac_tr[:, slices[i]], names)
+        for i, c in enumerate(cands)
+        if c.identifiable_rank == 0
+    }
+    partial = [
+        {"effect": c.effect, "gap_share": c.gap_share, "heldout_rms": c.heldout_rms, "heldout_p": c.heldout_p}
+        for c in sorted(cands, key=lambda c: -c.gap_share)
+        if dec.detected and c.significant and not c.explains
+    ]
     notes = []
     if not bool(fits.base_ok[b]):
         notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
@@ -400,13 +430,16 @@ def _finish(
         detect_statistic=float(dec.t0),
         detect_dof=float(dec.n_te),
         detect_p_value=float(dec.p_detect),
-        named_effect="none" if a is None else effects[a].name,
+        named_effect=None if a is None else effects[a].name,
+        explained=a is not None,
+        partial=partial,
+        absorbed_by=absorbed_by,
         indistinguishable_from=indist,
         additional_effects=additional,
         ranking=ranking,
         absorbed=absorbed,
         skipped=list(skipped),
-        gap_before=float(np.sqrt(np.mean(before**2))),
+        gap_before=gap_before,
         gap_after=float(np.sqrt(np.mean(after**2))),
         noise_floor=floor,
         noise_floor_predictive=floor_pred,
