@@ -33,15 +33,23 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._discovery import discover as run_discovery, supports_discovery
 from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p, noise_scale2, where_analysis
 from ._subspace import absorbing_params, absorption, base_param_names, basis, n_identifiable, prediction_factor, rank
+
+
+@eqx.filter_jit
+def _raw_base_residual(model: AbstractDiscrepancyModel, base: Any, data: Any) -> Any:
+    return model.observed(data) - model.predict(base, (), (), data)
+
 
 MIN_DOF = 6
 """Fewest residual degrees of freedom a fit must keep (data rows × outputs − parameters)."""
@@ -113,6 +121,7 @@ def diagnose(
     seed: int = 0,
     alpha: float = 0.05,
     estimate_noise: bool = False,
+    discover: bool = True,
 ) -> DiagnosisReport:
     """Run the discrepancy workflow on one data set (see the module docstring).
 
@@ -120,7 +129,8 @@ def diagnose(
     column is missing are skipped and reported). ``alpha``: false-alarm level of the detection
     test; candidates are tested at ``alpha / K`` (Bonferroni over the ``K`` candidates).
     ``estimate_noise``: take the noise scale from the base fit's training residuals (F tests)
-    instead of trusting the model's σ (χ² tests).
+    instead of trusting the model's σ (χ² tests). ``discover``: when a discrepancy is detected
+    that no candidate explains, search the open library of terms (``_discovery.py``).
     """
     n = model.n_rows(data)
     train_idx, test_idx = split_rows(n, holdout_fraction, seed)
@@ -129,7 +139,8 @@ def diagnose(
     if not chosen:
         raise ValueError(f"no candidate effect can be fitted to these data: {[s.to_dict() for s in skipped]}")
     train, test = model.take(data, train_idx), model.take(data, test_idx)
-    return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped)[0]
+    return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped,
+                         discover=discover)[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -179,6 +190,7 @@ def diagnose_many(
     alpha: float = 0.05,
     estimate_noise: bool = False,
     skipped: Sequence[SkippedEffect] | None = None,
+    discover: bool = True,
 ) -> list[DiagnosisReport]:
     """:func:`diagnose` on many train/held-out pairs at once (same shapes and columns; all
     fits batched). ``effects`` must be applicable to every data set."""
@@ -231,7 +243,8 @@ def diagnose_many(
         pending = again
 
     return [
-        _finish(b, decisions[b], fits, effects, nb, alpha, known, model, trains[b], tests[b], list(skipped or []))
+        _finish(b, decisions[b], fits, effects, nb, alpha, known, model, trains[b], tests[b], list(skipped or []),
+                discover)
         for b in range(len(trains))
     ]
 
@@ -354,6 +367,7 @@ def _finish(
     train: Any,
     test: Any,
     skipped: list[SkippedEffect],
+    discover: bool,
 ) -> DiagnosisReport:
     cands, chi2, rank_g = dec.cands, dec.chi2, dec.rank_g
     slices = effect_slices(model, effects)
@@ -383,6 +397,7 @@ def _finish(
     rf = model.report_factor
     before = raw_te[0] * rf
     after = raw_te[0 if a is None else a + 1] * rf
+    res_after_lib = raw_te[0 if a is None else a + 1]
     w_te = np.asarray(fits.w_te[b])
     cov = np.einsum("mij,mkj->mik", *(2 * [np.linalg.inv(w_te)]))
     floor = float(np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2))) * rf * math.sqrt(dec.scale2))
@@ -417,8 +432,26 @@ def _finish(
     partial = [
         {"effect": c.effect, "gap_share": c.gap_share, "heldout_rms": c.heldout_rms, "heldout_p": c.heldout_p}
         for c in sorted(cands, key=lambda c: -c.gap_share)
-        if dec.detected and c.significant and not c.explains
+        if dec.detected and a is None and c.significant and not c.explains
     ]
+    discovered, explained = [], a is not None
+    if dec.detected and a is None and discover and supports_discovery(model, train):
+        w_tr = np.asarray(fits.w_tr[b])
+        raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, train))
+        terms, discovered, delta, coef, passed = run_discovery(
+            model=model, train=train, test=test,
+            reading_tr=np.asarray(model.observed(train)), reading_te=np.asarray(model.observed(test)),
+            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
+            white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
+            raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=jac_tr[:, :nb],
+            jac_te=np.asarray(fits.jac_te[b])[:, :nb], dof0=dec.dof0, scale2=dec.scale2, known=known, alpha=alpha,
+        )
+        if passed:
+            explained = True
+            aug_fm = FittedModel(model, (terms.effect(model),), base_fm.base + model.base_scale * jnp.asarray(delta),
+                                 (jnp.asarray(coef),))
+            after = np.asarray(model.observed(test) - aug_fm.predict(test)) * rf
+            res_after_lib = after / rf
     notes = []
     if not bool(fits.base_ok[b]):
         notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
@@ -431,7 +464,8 @@ def _finish(
         detect_dof=float(dec.n_te),
         detect_p_value=float(dec.p_detect),
         named_effect=None if a is None else effects[a].name,
-        explained=a is not None,
+        explained=explained,
+        discovered=discovered,
         partial=partial,
         absorbed_by=absorbed_by,
         indistinguishable_from=indist,
@@ -444,7 +478,7 @@ def _finish(
         noise_floor=floor,
         noise_floor_predictive=floor_pred,
         derived_before=rms_dict(base_fm, raw_te[0]),
-        derived_after=rms_dict(aug_fm, raw_te[0 if a is None else a + 1]),
+        derived_after=rms_dict(aug_fm, res_after_lib),
         where_before=where_analysis(before, factors, model.output_names, alpha),
         where_after=where_analysis(after, factors, model.output_names, alpha),
         base_chi2=float(chi2[0]),
