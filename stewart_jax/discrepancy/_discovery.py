@@ -48,7 +48,7 @@ import numpy as np
 
 from ._registry import Effect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p
-from ._subspace import basis
+from ._subspace import SINE_TOL, basis
 
 T_REF_C = 20.0
 HOUR_S = 3600.0
@@ -178,6 +178,7 @@ class DiscoveredTerms(NamedTuple):
             reading = model.finish(state, data)
             return state._replace(offset=state.offset + self.offsets(theta, reading, data))
 
+        apply.terms = self  # what save_fitted_model writes, so that the model file can rebuild the effect
         n = self.n_params
         return Effect(
             name="discovered", model=model.name, n_params=n, apply=apply, scale=(model.report_factor**-1,) * n,
@@ -237,11 +238,106 @@ def _columns(spec: TermSpec, reading, data, w) -> np.ndarray:
     return np.stack(cols, axis=1)
 
 
+def _drops(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """:func:`_drop` for a stack of column sets ``c`` ``(g, n, p)`` of equal width (a
+    pseudo-inverse of each ``p × p`` Gram matrix, cut at the rank tolerance)."""
+    cp = c - np.einsum("nr,grp->gnp", q, np.einsum("nr,gnp->grp", q, c))
+    norms = np.linalg.norm(cp, axis=1, keepdims=True)
+    seen = norms > SINE_TOL * np.linalg.norm(c, axis=1, keepdims=True)  # directions the base does not absorb
+    cp = np.where(seen, cp / np.where(seen, norms, 1.0), 0.0)
+    b = np.einsum("gnp,n->gp", cp, r)
+    gram = np.einsum("gnp,gnq->gpq", cp, cp)
+    return np.einsum("gp,gpq,gq->g", b, np.linalg.pinv(gram, rcond=1e-9, hermitian=True), b)
+
+
 def _drop(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> float:
     """Drop of ``|r|²`` when ``r`` (orthogonal to ``q``) is fitted by ``c`` as well as ``q``."""
-    cp = c - q @ (q.T @ c)
-    qc = basis(cp) if np.any(cp) else cp[:, :0]
-    return float(np.sum((qc.T @ r) ** 2))
+    return float(_drops(q, r, c[None])[0])
+
+
+def best_group(fams, chosen, q, r, reading_tr, train, w_tr, known):
+    """The group with the largest BIC drop when added to the fit whose column basis is ``q``
+    and whose whitened residual is ``r`` (periods refined around the grid's best): ``(spec,
+    drop of χ², its columns' count, BIC drop)``, or ``None`` for an empty library."""
+    n_tr = r.size
+    chi2_now, p_now = float(r @ r), q.shape[1]
+    best = None
+    k = reading_tr.shape[1]
+    same_width = [[s for s in f if s not in chosen and (s.leg is None) == every]
+                  for f in fams for every in (True, False)]
+    for fam in same_width:
+        if not fam:
+            continue
+        drops = _drops(q, r, np.stack([_columns(spec, reading_tr, train, w_tr) for spec in fam]))
+        for spec, drop in zip(fam, drops, strict=True):
+            df = _n_coef(spec) * len(_legs(spec, k))
+            gain = bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known)
+            if best is None or gain > best[3]:
+                best = (spec, float(drop), df, gain)
+    if best is not None and best[0].form == "periodic":
+        spec, drop, df, gain = best
+        grid = spec.period * np.linspace(1 - 2 * (PERIOD_RATIO - 1), 1 + 2 * (PERIOD_RATIO - 1), 41)
+        drops = [_drop(q, r, _columns(spec._replace(period=float(p)), reading_tr, train, w_tr)) for p in grid]
+        i = int(np.argmax(drops))
+        spec, drop = spec._replace(period=float(grid[i])), drops[i]
+        best = (spec, drop, df, bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known))
+    return best
+
+
+BIC_MARGIN = 6.0
+"""A BIC difference above this is strong evidence (Kass and Raftery 1995, "Bayes factors", J.
+Amer. Statist. Assoc. 90, §3.2)."""
+
+
+def challenge(
+    *,
+    train: Any,
+    reading_tr: np.ndarray,
+    white_tr: np.ndarray,
+    w_tr: np.ndarray,
+    jac_base: np.ndarray,
+    jac_effect: np.ndarray,
+    dof0: int,
+    known: bool,
+    alpha: float,
+) -> tuple[str, TermSpec] | None:
+    """Whether the open library's best group ``g`` contests a candidate ``a`` that passed the
+    held-out test: ``("adds", g)`` when ``g`` explains significantly more on top of ``a``
+    (at ``alpha`` / the library's size), ``("better", g)`` when ``g`` fits better by more than
+    :data:`BIC_MARGIN` while ``a`` adds nothing significant on top of ``g``; ``None`` otherwise
+    (also when ``g`` lies in the span of the base and ``a``: the candidate is its physics)."""
+    k = reading_tr.shape[1]
+    fams = _library(reading_tr, train, k)
+    level = alpha / max(sum(len(f) for f in fams), 1)
+    n_tr = white_tr.size
+    q_g = basis(jac_base)
+    r0 = white_tr - q_g @ (q_g.T @ white_tr)
+    best = best_group(fams, [], q_g, r0, reading_tr, train, w_tr, known)
+    if best is None:
+        return None
+    spec = best[0]
+    cols = _columns(spec, reading_tr, train, w_tr)
+
+    def chi2_rank(*blocks):
+        q = basis(np.concatenate(blocks, axis=1))
+        res = white_tr - q @ (q.T @ white_tr)
+        return float(res @ res), q.shape[1]
+
+    chi2_0, rank_0 = float(r0 @ r0), q_g.shape[1]
+    chi2_a, rank_a = chi2_rank(jac_base, jac_effect)
+    chi2_g, rank_g = chi2_rank(jac_base, cols)
+    chi2_ag, rank_ag = chi2_rank(jac_base, jac_effect, cols)
+    df_g, df_a = rank_ag - rank_a, rank_ag - rank_g
+    if df_g == 0:
+        return None
+    dof = n_tr - rank_ag
+    if nested_p(chi2_a, chi2_ag, df_g, dof, known) < level:
+        return "adds", spec
+    gain_a = bic(chi2_0, rank_0, n_tr, known) - bic(chi2_a, rank_a, n_tr, known)
+    gain_g = bic(chi2_0, rank_0, n_tr, known) - bic(chi2_g, rank_g, n_tr, known)
+    if gain_g > gain_a + BIC_MARGIN and nested_p(chi2_g, chi2_ag, df_a, dof, known) >= alpha:
+        return "better", spec
+    return None
 
 
 def discover(
@@ -289,26 +385,10 @@ def discover(
         r = white_tr - q @ (q.T @ white_tr)
         chi2_now = float(r @ r)
         p_now = q.shape[1]
-        best = None
-        for fam in fams:
-            for spec in fam:
-                if spec in chosen:
-                    continue
-                cols = _columns(spec, reading_tr, train, w_tr)
-                drop = _drop(q, r, cols)
-                df = cols.shape[1]
-                gain = bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known)
-                if best is None or gain > best[0]:
-                    best = (gain, spec, drop, df)
+        best = best_group(fams, chosen, q, r, reading_tr, train, w_tr, known)
         if best is None:
             break
-        gain, spec, drop, df = best
-        if spec.form == "periodic":  # refine the period around the grid's best
-            grid = spec.period * np.linspace(1 - 2 * (PERIOD_RATIO - 1), 1 + 2 * (PERIOD_RATIO - 1), 41)
-            drops = [_drop(q, r, _columns(spec._replace(period=float(p)), reading_tr, train, w_tr)) for p in grid]
-            i = int(np.argmax(drops))
-            spec, drop = spec._replace(period=float(grid[i])), drops[i]
-            gain = bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known)
+        spec, drop, df, gain = best
         p = nested_p(chi2_now, chi2_now - drop, df, n_tr - p_now - df, known)
         if gain <= 0 or p >= level:
             break

@@ -38,7 +38,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._discovery import discover as run_discovery, supports_discovery
+from ._discovery import challenge, describe, discover as run_discovery, supports_discovery
 from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
@@ -392,6 +392,23 @@ def _finish(
         base, thetas = unpack(model, effects, jnp.asarray(z[0 if i is None else i + 1]), jnp.asarray(mask))
         return FittedModel(model, effs, base, tuple(thetas[j] for j in range(len(effects)) if mask[j]))
 
+    notes = []
+    w_tr = np.asarray(fits.w_tr[b])
+    if a is not None and discover and supports_discovery(model, train):
+        raw_tr0 = np.asarray(_raw_base_residual(model, fitted(None).base, train))
+        contest = challenge(
+            train=train, reading_tr=np.asarray(model.observed(train)),
+            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
+            jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[a]], dof0=dec.dof0, known=known, alpha=alpha,
+        )
+        if contest is not None:
+            how, spec = contest
+            why = ("explains significantly more on top of it" if how == "adds"
+                   else "fits better by the information criterion and it adds nothing on top of it")
+            notes.append(f"{effects[a].name} passes the held-out test but is not named: an open term, "
+                         f"{describe(spec)}, {why}")
+            cands = tuple(dataclasses.replace(c, explains=False) if i == a else c for i, c in enumerate(cands))
+            a, indist, additional = None, [], []
     base_fm, aug_fm = fitted(None), fitted(a)
     raw_te = np.asarray(fits.raw_te[b])
     rf = model.report_factor
@@ -436,7 +453,6 @@ def _finish(
     ]
     discovered, explained = [], a is not None
     if dec.detected and a is None and discover and supports_discovery(model, train):
-        w_tr = np.asarray(fits.w_tr[b])
         raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, train))
         terms, discovered, delta, coef, passed = run_discovery(
             model=model, train=train, test=test,
@@ -452,7 +468,6 @@ def _finish(
                                  (jnp.asarray(coef),))
             after = np.asarray(model.observed(test) - aug_fm.predict(test)) * rf
             res_after_lib = after / rf
-    notes = []
     if not bool(fits.base_ok[b]):
         notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
     if rank_g < nb:

@@ -223,7 +223,7 @@ class DiagnosisReport:
         for name, params in self.absorbed_by.items():
             shown = ", ".join(params[:8]) + (", …" if len(params) > 8 else "")
             lines.append(f"{name}: absorbed by the geometry (indistinguishable from a change of parameters {shown})")
-        return lines
+        return lines + list(self.notes)
 
     def to_dict(self) -> dict[str, Any]:
         unit = self.fitted.model.report_unit
