@@ -395,20 +395,29 @@ def _finish(
     notes = []
     w_tr = np.asarray(fits.w_tr[b])
     if a is not None and discover and supports_discovery(model, train):
+        # NOTE: terms of a reading are evaluated at the base fit's predicted reading, not the
+        # measured one: the difference is the residual itself, which a term would then fit.
         raw_tr0 = np.asarray(_raw_base_residual(model, fitted(None).base, train))
-        contest = challenge(
-            train=train, reading_tr=np.asarray(model.observed(train)),
-            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
-            jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[a]], dof0=dec.dof0, known=known, alpha=alpha,
-        )
-        if contest is not None:
+        order = [a] + sorted((i for i in dec.significant if i != a and cands[i].explains),
+                             key=lambda i: -cands[i].score)
+        named = None
+        for i in order:
+            contest = challenge(
+                train=train, reading_tr=np.asarray(model.observed(train)) - raw_tr0,
+                white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
+                jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[i]], dof0=dec.dof0, known=known, alpha=alpha,
+            )
+            if contest is None:
+                named = i
+                break
             how, spec = contest
             why = ("explains significantly more on top of it" if how == "adds"
                    else "fits better by the information criterion and it adds nothing on top of it")
-            notes.append(f"{effects[a].name} passes the held-out test but is not named: an open term, "
+            notes.append(f"{effects[i].name} passes the held-out test but is not named: an open term, "
                          f"{describe(spec)}, {why}")
-            cands = tuple(dataclasses.replace(c, explains=False) if i == a else c for i, c in enumerate(cands))
-            a, indist, additional = None, [], []
+            cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
+        if named != a:  # the pair tests were against the contested one
+            a, indist, additional = named, [], []
     base_fm, aug_fm = fitted(None), fitted(a)
     raw_te = np.asarray(fits.raw_te[b])
     rf = model.report_factor
@@ -456,7 +465,8 @@ def _finish(
         raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, train))
         terms, discovered, delta, coef, passed = run_discovery(
             model=model, train=train, test=test,
-            reading_tr=np.asarray(model.observed(train)), reading_te=np.asarray(model.observed(test)),
+            reading_tr=np.asarray(model.observed(train)) - raw_tr,
+            reading_te=np.asarray(model.observed(test)) - raw_te[0],
             white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
             white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
             raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=jac_tr[:, :nb],

@@ -143,7 +143,7 @@ class DiagnosisReport:
     - ``absorbed_by``: per completely absorbed candidate, the base parameters a change of which
       reproduces it.
     - ``discovered``: terms found by the open search when no candidate explains (dicts, see
-      :func:`~stewart_jax.discrepancy.discover`); empty if none was run or found.
+      the open term search of ``_discovery.py``); empty if none was run or found.
     - ``ranking``: every :class:`Candidate`, identifiable ones first, by score.
     - ``absorbed``: candidates the base parameters absorb completely; ``skipped``: the
       :class:`SkippedEffect` list.
