@@ -108,7 +108,9 @@ def test_cyclic_screw_error_is_discovered_with_its_period_and_amplitude(runs):
                 x = c[(leg, basis)]
                 assert x["unit"] == "µm"
                 assert abs(x["value"] - amp_um * want) < 5 * x["std"] + 0.05 * amp_um
-        assert r.gap_after < 1.15 * r.noise_floor_predictive < r.gap_before
+        # closed to the noise by the held-out test; the RMS itself within its sampling spread
+        assert t["heldout_p"] >= r.alpha
+        assert r.gap_after < 1.25 * r.noise_floor_predictive < r.gap_before
 
 
 def test_discovered_model_predicts_as_the_search_did_and_round_trips(runs, tmp_path):
