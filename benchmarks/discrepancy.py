@@ -75,7 +75,7 @@ def run_group(model, effect, magnitude, seeds, holdout, alpha, n_random):
                 "magnitude": magnitude,
                 "raw_magnitude": sim.truth.raw_magnitude,
                 "detected": rep.detected,
-                "named": rep.named_effect,
+                "named": rep.named_effect or "none",
                 "indistinguishable_from": rep.indistinguishable_from,
                 "additional": rep.additional_effects,
                 "gap_before": rep.gap_before,

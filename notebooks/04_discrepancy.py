@@ -67,6 +67,7 @@ print(f"detected: {report.detected} (p = {report.detect_p_value:.3g}); named: {r
       f"indistinguishable from: {report.indistinguishable_from}")
 print(f"held-out residual RMS: before {report.gap_before:.3g} µm, after {report.gap_after:.3g} µm, "
       f"noise floor {report.noise_floor:.3g} µm")
+print("\n".join(report.summary()))  # the verdict in sentences: named, partial, discovered, absorbed
 
 # %% [markdown]
 # ## The residual plots that reveal it

@@ -145,15 +145,15 @@ for w in assessment.warnings:
 # ## Diagnose: is anything missing from the model?
 #
 # The model-discrepancy workflow of `docs/discrepancy.md` (30 % of the poses held out).
-# "none" means the held-out residuals are explained by the noise you gave; otherwise it names
-# the effect to add.
+# `None` means nothing explains the gap (or there is none: see `report.summary()`); otherwise it
+# names the effect that closes the held-out gap to the noise floor.
 
 # %%
 model = dc.model_for(nominal, sigma_um=SIGMA_UM, sigma_arcsec=SIGMA_ARCSEC)  # the model of its family
 report = dc.diagnose(data, model, holdout_fraction=0.3, seed=0)
 print(f"detected: {report.detected} (p = {report.detect_p_value:.3g}); named: {report.named_effect}; "
       f"indistinguishable from: {report.indistinguishable_from}; skipped: {[s['effect'] for s in report.skipped]}")
-print(f"held-out RMS {report.gap_before:.3g} → {report.gap_after:.3g} µm (noise floor {report.noise_floor:.3g} µm)")
+print("\n".join(report.summary()))
 fig = plotting.plot_discrepancy_ranking(report)
 plotting.show(fig, figure_path("05_ranking.png"))
 fig = plotting.plot_residuals_vs_factor(report, "stroke_um")
@@ -182,6 +182,6 @@ if nominal.family == "6-UPS":
     (OUT / "calibrated.hal").write_text(sj.mechanism.to_genhexkins(calibrated))
     print(f"genhexkins settings written to {OUT / 'calibrated.hal'}:")
     print("\n".join((OUT / "calibrated.hal").read_text().splitlines()[:6]) + "\n…")
-if report.named_effect != "none":
+if report.named_effect is not None:
     dc.save_fitted_model(report.fitted, OUT / "augmented_model.json")
     print(f"augmented model written to {OUT / 'augmented_model.json'}")

@@ -223,7 +223,7 @@ def test_where_analysis_flags_a_dependence():
 
 def test_no_effect_is_not_named(reports):
     rep = reports[None]
-    assert rep.named_effect == "none" and rep.gap_after == rep.gap_before
+    assert rep.named_effect is None and rep.gap_after == rep.gap_before
     assert rep.gap_before < 1.3 * rep.noise_floor
 
 

@@ -183,7 +183,7 @@ def test_hidden_strut_effect_is_named_and_the_gap_shrinks(reports, hidden, effec
 
 def test_no_hidden_effect_is_not_named(reports):
     rep = reports[None]
-    assert rep.named_effect == "none" and rep.gap_after == rep.gap_before
+    assert rep.named_effect is None and rep.gap_after == rep.gap_before
     assert rep.gap_before < 1.3 * rep.noise_floor_predictive
 
 

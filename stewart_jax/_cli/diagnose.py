@@ -54,16 +54,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
         save_fitted_model(report.fitted, args.out_model)
     skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
-    indist = ""
-    if report.indistinguishable_from:
-        indist = f" (indistinguishable from {', '.join(report.indistinguishable_from)})"
-    print(
-        f"diagnose: detected={report.detected} (held-out p = {report.detect_p_value:.3g}), "
-        f"named: {report.named_effect}{indist}; held-out RMS {report.gap_before:.4g} → {report.gap_after:.4g} "
-        f"{report.fitted.model.report_unit} (noise floor {report.noise_floor:.4g})"
-        + (f"; skipped {skipped}" if skipped else ""),
-        file=sys.stderr,
-    )
+    for line in report.summary() + ([f"skipped {skipped}"] if skipped else []):
+        print(f"diagnose: {line}", file=sys.stderr)
     if args.json:
         from ._common import write_json
 

@@ -7,12 +7,18 @@
    output how the held-out residuals depend on the factors ("where").
 2. **Name.** Fit base + each candidate effect on the training part; per candidate:
    likelihood-ratio test against the base model with the effect's *identifiable* degrees of
-   freedom, BIC, held-out χ², and how much of its signature the base parameters absorb. Name
-   the best significant candidate; candidates that the data cannot reject against the named one
-   (encompassing test, Mizon and Richard 1986, "The encompassing principle and its application
-   to testing non-nested hypotheses", Econometrica 54) are ``indistinguishable_from``.
+   freedom, BIC, held-out χ², and how much of its signature the base parameters absorb. A
+   candidate *explains* the discrepancy when it is significant and the augmented model passes
+   the same held-out test that detected the discrepancy, at the same ``alpha``; only such a
+   candidate is named (the best by BIC). A significant candidate that does not pass is a
+   *partial* explanation, reported with the share of the gap it removes; a candidate the base
+   parameters absorb completely is reported with the base parameters that absorb it.
+   Candidates that the data cannot reject against the named one (encompassing test, Mizon and
+   Richard 1986, "The encompassing principle and its application to testing non-nested
+   hypotheses", Econometrica 54) are ``indistinguishable_from``.
 3. **Add.** The named effect's fit is the augmented model (:class:`FittedModel`), usable for
-   control (:meth:`FittedModel.commanded`).
+   control (:meth:`FittedModel.commanded`). When nothing explains the gap, the base model stays
+   the fitted one (an open search of terms is in ``_discovery.py``).
 4. **Show.** Held-out residual RMS before/after against the noise floor, derived errors
    (6-PSS: pose errors) before/after, the "where" analysis after the fix.
 
@@ -27,15 +33,23 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._discovery import challenge, describe, discover as run_discovery, supports_discovery
 from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p, noise_scale2, where_analysis
-from ._subspace import absorption, basis, n_identifiable, prediction_factor, rank
+from ._subspace import absorbing_params, absorption, base_param_names, basis, n_identifiable, prediction_factor, rank
+
+
+@eqx.filter_jit
+def _raw_base_residual(model: AbstractDiscrepancyModel, base: Any, data: Any) -> Any:
+    return model.observed(data) - model.predict(base, (), (), data)
+
 
 MIN_DOF = 6
 """Fewest residual degrees of freedom a fit must keep (data rows × outputs − parameters)."""
@@ -107,6 +121,7 @@ def diagnose(
     seed: int = 0,
     alpha: float = 0.05,
     estimate_noise: bool = False,
+    discover: bool = True,
 ) -> DiagnosisReport:
     """Run the discrepancy workflow on one data set (see the module docstring).
 
@@ -114,7 +129,8 @@ def diagnose(
     column is missing are skipped and reported). ``alpha``: false-alarm level of the detection
     test; candidates are tested at ``alpha / K`` (Bonferroni over the ``K`` candidates).
     ``estimate_noise``: take the noise scale from the base fit's training residuals (F tests)
-    instead of trusting the model's σ (χ² tests).
+    instead of trusting the model's σ (χ² tests). ``discover``: when a discrepancy is detected
+    that no candidate explains, search the open library of terms (``_discovery.py``).
     """
     n = model.n_rows(data)
     train_idx, test_idx = split_rows(n, holdout_fraction, seed)
@@ -123,7 +139,8 @@ def diagnose(
     if not chosen:
         raise ValueError(f"no candidate effect can be fitted to these data: {[s.to_dict() for s in skipped]}")
     train, test = model.take(data, train_idx), model.take(data, test_idx)
-    return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped)[0]
+    return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped,
+                         discover=discover)[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -173,6 +190,7 @@ def diagnose_many(
     alpha: float = 0.05,
     estimate_noise: bool = False,
     skipped: Sequence[SkippedEffect] | None = None,
+    discover: bool = True,
 ) -> list[DiagnosisReport]:
     """:func:`diagnose` on many train/held-out pairs at once (same shapes and columns; all
     fits batched). ``effects`` must be applicable to every data set."""
@@ -211,7 +229,9 @@ def diagnose_many(
             dec = decisions[b]
             dec = dataclasses.replace(dec, pairs={c: float(chi2_pairs[b, j]) for bb, j, c in jobs if bb == b})
             outcome = _pair_tests(dec, np.asarray(fits.jac_tr[b]), slices, nb, known)
-            dominating = [c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level]
+            dominating = [
+                c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level and dec.cands[c].explains
+            ]
             dominating = [c for c in dominating if c not in visited[b]]
             if dominating:
                 dec = dataclasses.replace(dec, named_index=max(dominating, key=lambda c: dec.cands[c].score))
@@ -223,7 +243,8 @@ def diagnose_many(
         pending = again
 
     return [
-        _finish(b, decisions[b], fits, effects, nb, alpha, known, model, trains[b], tests[b], list(skipped or []))
+        _finish(b, decisions[b], fits, effects, nb, alpha, known, model, trains[b], tests[b], list(skipped or []),
+                discover)
         for b in range(len(trains))
     ]
 
@@ -288,9 +309,13 @@ def _decide(
     testable = [i for i, c in enumerate(partial) if c["identifiable_rank"] > 0]
     level = alpha / max(len(testable), 1)
     significant = tuple(i for i in testable if partial[i]["p_value"] < level)
-    cands = tuple(Candidate(significant=i in significant, **c) for i, c in enumerate(partial))
+    cands = tuple(
+        Candidate(significant=i in significant, explains=i in significant and c["heldout_p"] >= alpha, **c)
+        for i, c in enumerate(partial)
+    )
     detected = bool(p_detect < alpha)
-    named = max(significant, key=lambda i: cands[i].score) if (detected and significant) else None
+    explaining = [i for i in significant if cands[i].explains]
+    named = max(explaining, key=lambda i: cands[i].score) if (detected and explaining) else None
     return _Decision(
         cands=cands,
         significant=significant,
@@ -342,8 +367,10 @@ def _finish(
     train: Any,
     test: Any,
     skipped: list[SkippedEffect],
+    discover: bool,
 ) -> DiagnosisReport:
     cands, chi2, rank_g = dec.cands, dec.chi2, dec.rank_g
+    slices = effect_slices(model, effects)
     jac_tr = np.asarray(fits.jac_tr[b])
     a = dec.named_index
     indist, additional = [], []
@@ -365,11 +392,38 @@ def _finish(
         base, thetas = unpack(model, effects, jnp.asarray(z[0 if i is None else i + 1]), jnp.asarray(mask))
         return FittedModel(model, effs, base, tuple(thetas[j] for j in range(len(effects)) if mask[j]))
 
+    notes = []
+    w_tr = np.asarray(fits.w_tr[b])
+    if a is not None and discover and supports_discovery(model, train):
+        # NOTE: terms of a reading are evaluated at the base fit's predicted reading, not the
+        # measured one: the difference is the residual itself, which a term would then fit.
+        raw_tr0 = np.asarray(_raw_base_residual(model, fitted(None).base, train))
+        order = [a] + sorted((i for i in dec.significant if i != a and cands[i].explains),
+                             key=lambda i: -cands[i].score)
+        named = None
+        for i in order:
+            contest = challenge(
+                train=train, reading_tr=np.asarray(model.observed(train)) - raw_tr0,
+                white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
+                jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[i]], dof0=dec.dof0, known=known, alpha=alpha,
+            )
+            if contest is None:
+                named = i
+                break
+            how, spec = contest
+            why = ("explains significantly more on top of it" if how == "adds"
+                   else "fits better by the information criterion and it adds nothing on top of it")
+            notes.append(f"{effects[i].name} passes the held-out test but is not named: an open term, "
+                         f"{describe(spec)}, {why}")
+            cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
+        if named != a:  # the pair tests were against the contested one
+            a, indist, additional = named, [], []
     base_fm, aug_fm = fitted(None), fitted(a)
     raw_te = np.asarray(fits.raw_te[b])
     rf = model.report_factor
     before = raw_te[0] * rf
     after = raw_te[0 if a is None else a + 1] * rf
+    res_after_lib = raw_te[0 if a is None else a + 1]
     w_te = np.asarray(fits.w_te[b])
     cov = np.einsum("mij,mkj->mik", *(2 * [np.linalg.inv(w_te)]))
     floor = float(np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2))) * rf * math.sqrt(dec.scale2))
@@ -387,9 +441,43 @@ def _finish(
         return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
 
     factors = model.factors(test)
+    gap_before = float(np.sqrt(np.mean(before**2)))
+    excess = gap_before**2 - floor_pred**2
+    cands = tuple(
+        dataclasses.replace(c, gap_share=float((gap_before**2 - c.heldout_rms**2) / excess) if excess > 0 else 0.0)
+        for c in cands
+    )
     ranking = sorted(cands, key=lambda c: (c.identifiable_rank > 0, c.score), reverse=True)
     absorbed = [c.effect for c in cands if c.identifiable_rank == 0]
-    notes = []
+    names = base_param_names(model)
+    absorbed_by = {
+        effects[i].name: absorbing_params(jac_tr[:, :nb], jac_tr[:, slices[i]], names)
+        for i, c in enumerate(cands)
+        if c.identifiable_rank == 0
+    }
+    partial = [
+        {"effect": c.effect, "gap_share": c.gap_share, "heldout_rms": c.heldout_rms, "heldout_p": c.heldout_p}
+        for c in sorted(cands, key=lambda c: -c.gap_share)
+        if dec.detected and a is None and c.significant and not c.explains
+    ]
+    discovered, explained = [], a is not None
+    if dec.detected and a is None and discover and supports_discovery(model, train):
+        raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, train))
+        terms, discovered, delta, coef, passed = run_discovery(
+            model=model, train=train, test=test,
+            reading_tr=np.asarray(model.observed(train)) - raw_tr,
+            reading_te=np.asarray(model.observed(test)) - raw_te[0],
+            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
+            white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
+            raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=jac_tr[:, :nb],
+            jac_te=np.asarray(fits.jac_te[b])[:, :nb], dof0=dec.dof0, scale2=dec.scale2, known=known, alpha=alpha,
+        )
+        if passed:
+            explained = True
+            aug_fm = FittedModel(model, (terms.effect(model),), base_fm.base + model.base_scale * jnp.asarray(delta),
+                                 (jnp.asarray(coef),))
+            after = np.asarray(model.observed(test) - aug_fm.predict(test)) * rf
+            res_after_lib = after / rf
     if not bool(fits.base_ok[b]):
         notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
     if rank_g < nb:
@@ -400,18 +488,22 @@ def _finish(
         detect_statistic=float(dec.t0),
         detect_dof=float(dec.n_te),
         detect_p_value=float(dec.p_detect),
-        named_effect="none" if a is None else effects[a].name,
+        named_effect=None if a is None else effects[a].name,
+        explained=explained,
+        discovered=discovered,
+        partial=partial,
+        absorbed_by=absorbed_by,
         indistinguishable_from=indist,
         additional_effects=additional,
         ranking=ranking,
         absorbed=absorbed,
         skipped=list(skipped),
-        gap_before=float(np.sqrt(np.mean(before**2))),
+        gap_before=gap_before,
         gap_after=float(np.sqrt(np.mean(after**2))),
         noise_floor=floor,
         noise_floor_predictive=floor_pred,
         derived_before=rms_dict(base_fm, raw_te[0]),
-        derived_after=rms_dict(aug_fm, raw_te[0 if a is None else a + 1]),
+        derived_after=rms_dict(aug_fm, res_after_lib),
         where_before=where_analysis(before, factors, model.output_names, alpha),
         where_after=where_analysis(after, factors, model.output_names, alpha),
         base_chi2=float(chi2[0]),

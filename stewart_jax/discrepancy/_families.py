@@ -113,7 +113,8 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
     """Write a fitted (augmented) model as JSON: the model name and mechanism family, the
     calibration parameters (``params``) and ``v0`` (mm), the fitted mechanism's geometry file
     (``geometry``, with the family's limits and travel), the noise model, and each effect's name
-    and parameters (library units: mm, rad, 1/K, mm/s; and in report units)."""
+    and parameters (library units: mm, rad, 1/K, mm/s; and in report units); discovered terms
+    also carry their definition (``terms``)."""
     m = fitted.model
     entry = _entry_for_model(m.name)
     mechanism = entry.mechanism(m, jnp.asarray(fitted.base))
@@ -128,6 +129,7 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
         "sigma_stroke_um": float(m.sigma_stroke_mm) / UM,
         "effects": [
             {"effect": e.name, "params": np.asarray(t).tolist(), "report_params": r["params"], "report_unit": e.unit}
+            | ({"terms": e.apply.terms.to_dict()} if hasattr(e.apply, "terms") else {})
             for e, t, r in zip(fitted.effects, fitted.thetas, fitted.effect_report(), strict=True)
         ],
         "geometry": mechanism.to_dict(),
@@ -179,7 +181,12 @@ def load_fitted_model(path: str | os.PathLike[str]):
         )
     mechanism = mechanism.with_params(jnp.asarray(params))
     model = entry.factory(mechanism, d.get("sigma_um", 0.1), d.get("sigma_arcsec", 0.1), d.get("sigma_stroke_um", 0.0))
-    effects = tuple(get_effect(name, e["effect"]) for e in d.get("effects", []))
+    from ._discovery import DiscoveredTerms
+
+    effects = tuple(
+        DiscoveredTerms.from_dict(e["terms"]).effect(model) if "terms" in e else get_effect(name, e["effect"])
+        for e in d.get("effects", [])
+    )
     thetas = tuple(jnp.asarray(e["params"], dtype=jnp.float64) for e in d.get("effects", []))
     for e, t in zip(effects, thetas, strict=True):
         if t.shape != (e.n_params,):

@@ -81,6 +81,11 @@ class Candidate:
     - ``absorbed_fraction``, ``identifiable_rank``, ``sines``: see :class:`Absorption`.
     - ``converged``: the fit converged.
     - ``params``: fitted effect parameters in report units (``unit``).
+    - ``explains``: significant, and base + effect passes the held-out test at the detection's
+      ``alpha`` (closes the gap to the noise floor): only such a candidate can be named.
+    - ``gap_share``: the share of the held-out gap it removes,
+      ``(gap_before² − heldout_rms²) / (gap_before² − noise_floor_predictive²)`` (1: all of the
+      excess over the noise; ≤ 0: none, or the gap grew).
     """
 
     effect: str
@@ -99,6 +104,8 @@ class Candidate:
     converged: bool
     params: list[float]
     unit: str
+    explains: bool = False
+    gap_share: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
@@ -126,9 +133,17 @@ class DiagnosisReport:
     - ``model``: the model's registry name.
     - ``detected``, ``detect_statistic``, ``detect_dof``, ``detect_p_value``: the held-out test
       of the base model against the noise alone.
-    - ``named_effect``: the named candidate (``"none"`` if nothing is detected or significant);
-      ``indistinguishable_from``: candidates the data cannot reject against it;
+    - ``named_effect``: the named candidate, one that explains the discrepancy (``None`` unless
+      ``explained``); ``indistinguishable_from``: candidates the data cannot reject against it;
       ``additional_effects``: candidates that explain more on top of it.
+    - ``explained``: a candidate (or, with ``discovered``, a set of discovered terms) closes the
+      held-out gap to the noise floor.
+    - ``partial``: significant candidates that do not close the gap, each a dict with
+      ``effect``, ``gap_share`` (see :class:`Candidate`), ``heldout_rms``, ``heldout_p``.
+    - ``absorbed_by``: per completely absorbed candidate, the base parameters a change of which
+      reproduces it.
+    - ``discovered``: terms found by the open search when no candidate explains (dicts, see
+      the open term search of ``_discovery.py``); empty if none was run or found.
     - ``ranking``: every :class:`Candidate`, identifiable ones first, by score.
     - ``absorbed``: candidates the base parameters absorb completely; ``skipped``: the
       :class:`SkippedEffect` list.
@@ -152,7 +167,7 @@ class DiagnosisReport:
     detect_statistic: float
     detect_dof: float
     detect_p_value: float
-    named_effect: str
+    named_effect: str | None
     indistinguishable_from: list[str]
     additional_effects: list[str]
     ranking: list[Candidate]
@@ -179,6 +194,36 @@ class DiagnosisReport:
     residuals_after: np.ndarray
     test_factors: dict[str, np.ndarray]
     notes: list[str] = dataclasses.field(default_factory=list)
+    explained: bool = False
+    partial: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    absorbed_by: dict[str, list[str]] = dataclasses.field(default_factory=dict)
+    discovered: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+
+    def summary(self) -> list[str]:
+        """The verdict in plain sentences (what ``stewart-jax diagnose`` prints)."""
+        unit = self.fitted.model.report_unit
+        gap = f"held-out RMS {self.gap_before:.3g} → {self.gap_after:.3g} {unit}, noise floor {self.noise_floor:.3g}"
+        lines = []
+        if not self.detected:
+            lines.append(f"no discrepancy detected (held-out p = {self.detect_p_value:.3g}); {gap}")
+        elif self.named_effect is not None:
+            indist = (f" (indistinguishable from {', '.join(self.indistinguishable_from)})"
+                      if self.indistinguishable_from else "")
+            lines.append(f"named: {self.named_effect}{indist}; it closes the gap: {gap}")
+        elif self.explained and self.discovered:
+            lines.append(f"no candidate explains the discrepancy; discovered terms close the gap: {gap}")
+        else:
+            lines.append(f"a discrepancy is present that no candidate explains (held-out p = "
+                         f"{self.detect_p_value:.3g}); {gap}")
+        for p in self.partial:
+            lines.append(f"partial explanation: {p['effect']} removes {100 * p['gap_share']:.0f} % of the gap "
+                         f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
+        for t in self.discovered:
+            lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
+        for name, params in self.absorbed_by.items():
+            shown = ", ".join(params[:8]) + (", …" if len(params) > 8 else "")
+            lines.append(f"{name}: absorbed by the geometry (indistinguishable from a change of parameters {shown})")
+        return lines + list(self.notes)
 
     def to_dict(self) -> dict[str, Any]:
         unit = self.fitted.model.report_unit
@@ -186,7 +231,12 @@ class DiagnosisReport:
             {
                 "model": self.model,
                 "detected": self.detected,
+                "explained": self.explained,
                 "named_effect": self.named_effect,
+                "partial": self.partial,
+                "discovered": self.discovered,
+                "absorbed_by": self.absorbed_by,
+                "summary": self.summary(),
                 "indistinguishable_from": self.indistinguishable_from,
                 "ranking": [c.to_dict() for c in self.ranking],
                 "gap_before": self.gap_before,

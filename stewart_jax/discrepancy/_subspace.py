@@ -104,3 +104,36 @@ def prediction_factor(a_tr: Float[np.ndarray, "n p"], a_te: Float[np.ndarray, "t
     _, sv, vt = np.linalg.svd(a_tr[:, keep] / n[keep], full_matrices=False)
     ok = sv > RANK_RTOL * sv[0]
     return (a_te[:, keep] / n[keep]) @ (vt[ok].T / sv[ok])
+
+
+ABSORB_SHARE = 0.1
+"""A base parameter is listed as absorbing an effect when its part of the least-squares
+reproduction of the effect's columns is at least this share of the largest part."""
+
+
+def base_param_names(model) -> tuple[str, ...]:
+    """Labels of a discrepancy model's base parameters: its mechanism's ``param_names`` when
+    they match, ``A1x … B6z`` for the 36 joint centres of the 6-PSS, ``u1 …`` otherwise."""
+    nb = int(model.base_initial.shape[0])
+    names = tuple(getattr(getattr(model, "mechanism", None), "param_names", ()) or ())
+    if len(names) == nb:
+        return names
+    if nb == 36:
+        return tuple(f"{s}{i}{a}" for s in "AB" for i in range(1, 7) for a in "xyz")
+    return tuple(f"u{i}" for i in range(1, nb + 1))
+
+
+def absorbing_params(
+    base_columns: Float[np.ndarray, "n p"], effect_columns: Float[np.ndarray, "n k"], names: tuple[str, ...]
+) -> list[str]:
+    """The base parameters whose change reproduces an (absorbed) effect's columns: the
+    minimum-norm least-squares ``G β = E``; parameter ``j`` counts by ``‖G_j‖·‖β_j‖`` (its
+    share of the reproduction, scale-free), listed largest first down to :data:`ABSORB_SHARE`
+    of the largest."""
+    n = np.linalg.norm(base_columns, axis=0)
+    beta = np.linalg.lstsq(normalised(base_columns), effect_columns, rcond=RANK_RTOL)[0]
+    part = np.linalg.norm(beta, axis=1) * (n > 0)
+    if not np.any(part > 0):
+        return []
+    order = np.argsort(-part)
+    return [names[j] for j in order if part[j] >= ABSORB_SHARE * part[order[0]]]

@@ -47,8 +47,9 @@ def plot_residuals_vs_factor(
     series = []
     if which in ("before", "both"):
         series.append(("before (base model)", report.residuals_before, "tab:red"))
-    if which in ("after", "both") and report.named_effect != "none":
-        series.append((f"after (+ {report.named_effect})", report.residuals_after, "tab:blue"))
+    added = _added(report)
+    if which in ("after", "both") and added:
+        series.append((f"after (+ {added})", report.residuals_after, "tab:blue"))
     for j, ax in enumerate(axes.flat):
         if j >= k:
             ax.set_visible(False)
@@ -126,13 +127,20 @@ def plot_discrepancy_ranking(report: Any, *, title: str | None = None) -> Figure
     return fig
 
 
+def _added(report: Any) -> str | None:
+    """What the augmented model adds: the named effect, or the discovered terms."""
+    if report.named_effect not in (None, "none"):
+        return report.named_effect
+    return "discovered terms" if getattr(report, "discovered", None) else None
+
+
 def plot_discrepancy_gap(report: Any, *, title: str | None = None) -> Figure:
     """Held-out stroke-residual RMS before and after adding the named effect, against the noise
     floor (the RMS that noise alone leaves)."""
     unit = report.fitted.model.report_unit
     fig, ax = plt.subplots(figsize=(5.5, 4))
     vals = [report.gap_before, report.gap_after]
-    labels = ["before (base model)", f"after (+ {report.named_effect})"]
+    labels = ["before (base model)", f"after (+ {_added(report) or 'nothing'})"]
     ax.bar(labels, vals, color=["tab:red", "tab:blue"], label="held-out residual RMS")
     ax.axhline(report.noise_floor, color="k", ls="--", lw=1, label=f"noise floor {report.noise_floor:.3g} {unit}")
     for i, v in enumerate(vals):

@@ -1,0 +1,460 @@
+"""Open search for the missing effect: sparse regression over a library of terms in the
+session's factors, in the manner of SINDy (Brunton, Proctor, Kutz 2016, "Discovering governing
+equations from data by sparse identification of nonlinear dynamical systems", PNAS 113(15);
+de Silva et al. 2020, "PySINDy: a Python package for the sparse identification of nonlinear
+dynamical systems from data", JOSS 5(49)).
+
+When no registered candidate closes the held-out gap, the residual of each actuator is
+regressed on terms of the factors the data carry:
+
+- the actuator's own reading ``q``: polynomials ``q^d`` (``d`` = 1, 2, 3) and Fourier pairs
+  ``sin(2π q / P), cos(2π q / P)`` over a geometric grid of periods ``P`` (cyclic screw and
+  encoder errors), refined around the best one;
+- the approach direction: a step ``dir / 2`` (lost motion);
+- temperature ``T − 20 °C`` and its product with the reading (a temperature-dependent scale);
+- time (hours, degree 1 and 2) and the pose components (degree 2).
+
+A *group* is one term on one actuator (``leg`` 1–6) or the same term on every actuator with
+one coefficient each (``leg`` null). Groups are fitted jointly with the base parameters (the
+whitened base Jacobian at the base fit is in every regression, so what the geometry can absorb
+is not counted) and chosen by forward selection: at each step the group with the largest drop
+of the Bayesian information criterion (Schwarz 1978) whose drop of the training χ² is
+significant at ``alpha`` divided by the number of groups tried (Bonferroni over the library,
+which guards the period search against chance); the search stops as soon as the augmented model
+passes the held-out test that detected the discrepancy, at the same ``alpha``, or when no group
+qualifies.
+
+NOTE: the regression is the linearisation of the fit at the base optimum (the same one whose
+prediction covariance the held-out test uses); the terms are linear in their coefficients and
+the base parameters move by µm, so it is exact to ~1e-4 relative. The augmented model
+(:class:`DiscoveredTerms` as an :class:`~stewart_jax.discrepancy.Effect`) evaluates a reading's
+terms at the model's predicted reading, so it can be used to command moves.
+
+Limits: a term the library cannot express (a period outside the grid, an interaction of two
+pose components, a hysteresis loop wider than a step, a change at one instant) is not found;
+the held-out gap then stays open and the report says so. A period is resolved when the readings
+of the training poses span at least about two periods and are sampled at least ~4 times per
+period on average.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..calibration._problem import CalibrationData
+from ._registry import Effect
+from ._statistics import bic, heldout_chi2, heldout_p, nested_p
+from ._subspace import SINE_TOL, basis
+
+T_REF_C = 20.0
+HOUR_S = 3600.0
+MAX_TERMS = 4
+"""Most groups the forward selection adds."""
+PERIOD_RATIO = 1.005
+"""Ratio of neighbouring periods of the grid (a 0.25 % largest mismatch before refinement)."""
+MIN_PERIODS_IN_RANGE = 1.5
+"""The longest period tried: the readings' range / this."""
+SAMPLES_PER_PERIOD = 4.0
+"""The shortest period tried: this many training readings per period on average."""
+
+_POSE = (("x", 0, 1.0, "mm"), ("y", 1, 1.0, "mm"), ("z", 2, 1.0, "mm"),
+         ("rx", 3, 180 / math.pi, "deg"), ("ry", 4, 180 / math.pi, "deg"), ("rz", 5, 180 / math.pi, "deg"))
+
+
+class TermSpec(NamedTuple):
+    """One term group: ``factor`` (``reading``, ``dir``, ``temperature``, ``time``, ``x`` … ``rz``),
+    ``form`` (``periodic``, ``polynomial``, ``step``), ``period`` (factor unit; periodic),
+    ``degree`` (polynomial), ``times`` (``"temperature"`` for a product with temperature, else
+    ``""``), ``leg`` (0-based actuator, or ``None`` for every actuator)."""
+
+    factor: str
+    form: str
+    period: float | None
+    degree: int | None
+    times: str
+    leg: int | None
+
+
+def _factor_values(spec: TermSpec, reading, data) -> np.ndarray | jnp.ndarray:
+    """``(m, k)`` values of the term's basis functions stacked on a last axis ``(m, k, c)``:
+    ``reading`` in mm, poses in mm and degrees, temperature minus 20 °C, time in hours."""
+    xp = jnp if isinstance(reading, jnp.ndarray) and not isinstance(reading, np.ndarray) else np
+    m, k = reading.shape
+    if spec.factor == "reading":
+        x = reading
+    elif spec.factor == "dir":
+        x = xp.asarray(data.directions)
+    elif spec.factor == "temperature":
+        x = xp.broadcast_to(xp.asarray(data.temperature)[:, None] - T_REF_C, (m, k))
+    elif spec.factor == "time":
+        x = xp.broadcast_to(xp.asarray(data.time)[:, None] / HOUR_S, (m, k))
+    else:
+        _, i, f, _ = next(p for p in _POSE if p[0] == spec.factor)
+        x = xp.broadcast_to(xp.asarray(data.poses)[:, i : i + 1] * f, (m, k))
+    if spec.form == "periodic":
+        a = 2 * math.pi * x / spec.period
+        cols = xp.stack([xp.sin(a), xp.cos(a)], axis=-1)
+    elif spec.form == "step":
+        cols = (0.5 * x)[..., None]
+    else:
+        cols = (x**spec.degree)[..., None]
+    if spec.times == "temperature":
+        cols = cols * (xp.asarray(data.temperature)[:, None, None] - T_REF_C)
+    return cols
+
+
+def _n_coef(spec: TermSpec) -> int:
+    return 2 if spec.form == "periodic" else 1
+
+
+def _legs(spec: TermSpec, k: int) -> list[int]:
+    return list(range(k)) if spec.leg is None else [spec.leg]
+
+
+def _unit(spec: TermSpec, report_unit: str) -> str:
+    """Unit of a term's coefficient (the residual's report unit per unit of the basis)."""
+    if spec.form == "periodic" or spec.form == "step":
+        per = ""
+    else:
+        u = {"reading": "mm", "temperature": "K", "time": "h", "dir": ""}.get(spec.factor)
+        u = u if u is not None else next(p[3] for p in _POSE if p[0] == spec.factor)
+        per = u if spec.degree == 1 else f"{u}^{spec.degree}"
+    if spec.times == "temperature":
+        per = f"{per}·K" if per else "K"
+    return f"{report_unit}/{per}" if per else report_unit
+
+
+def describe(spec: TermSpec) -> str:
+    """The term in words."""
+    who = "every actuator" if spec.leg is None else f"actuator {spec.leg + 1}"
+    what = {"reading": "its reading", "dir": "its approach direction"}.get(spec.factor, spec.factor)
+    if spec.form == "periodic":
+        unit = "mm" if spec.factor == "reading" else ""
+        s = f"a periodic error in {what} with period {spec.period:.4g} {unit}".rstrip()
+    elif spec.form == "step":
+        s = f"a step with {what} (lost motion)"
+    else:
+        s = f"a degree-{spec.degree} polynomial in {what}"
+    if spec.times == "temperature":
+        s += " times the temperature"
+    return f"{s}, on {who}"
+
+
+class DiscoveredTerms(NamedTuple):
+    """The discovered terms as one effect's definition: ``specs`` (the groups), ``k`` (outputs
+    per row). Parameters: the coefficients of each group, leg by leg, basis function by basis
+    function (library units: the reading's unit per unit of the basis)."""
+
+    specs: tuple[TermSpec, ...]
+    k: int
+
+    @property
+    def n_params(self) -> int:
+        return sum(_n_coef(s) * len(_legs(s, self.k)) for s in self.specs)
+
+    def offsets(self, theta, reading, data):
+        """``(m, k)`` reading offsets of the terms at the readings ``reading`` (mm)."""
+        out = jnp.zeros(reading.shape)
+        off = 0
+        for s in self.specs:
+            cols = _factor_values(s, reading, data)
+            for j in _legs(s, self.k):
+                c = _n_coef(s)
+                out = out.at[:, j].add(cols[:, j, :] @ theta[off : off + c])
+                off += c
+        return out
+
+    def effect(self, model: Any) -> Effect:
+        """An unregistered :class:`Effect` adding the terms to ``model``'s readings (the reading
+        factor is the model's prediction before the terms)."""
+        requires = {"dir": ("directions",), "temperature": ("temperature",), "time": ("time",)}
+        req = sorted({c for s in self.specs for c in requires.get(s.factor, ()) + requires.get(s.times, ())})
+
+        def apply(theta, data, state):
+            reading = model.finish(state, data)
+            return state._replace(offset=state.offset + self.offsets(theta, reading, data))
+
+        apply.terms = self  # what save_fitted_model writes, so that the model file can rebuild the effect
+        n = self.n_params
+        return Effect(
+            name="discovered", model=model.name, n_params=n, apply=apply, scale=(model.report_factor**-1,) * n,
+            unit=model.report_unit, report_factor=(model.report_factor,) * n, requires=tuple(req),
+            acts_on="mechanism", doc="; ".join(describe(s) for s in self.specs),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"k": self.k, "specs": [s._asdict() for s in self.specs]}
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> DiscoveredTerms:
+        return DiscoveredTerms(tuple(TermSpec(**s) for s in d["specs"]), int(d["k"]))
+
+
+def supports_discovery(model: Any, data: Any) -> bool:
+    """The open search applies to models whose observations are actuator readings with an
+    additive offset in their state (the 6-PSS and 6-UPS models)."""
+    if not isinstance(data, CalibrationData):
+        return False
+    return "offset" in getattr(type(model.initial_state(model.base_initial, data, False)), "_fields", ())
+
+
+def _library(reading_tr: np.ndarray, data, k: int) -> list[list[TermSpec]]:
+    """The candidate groups, as families (a family of periodic groups shares one period grid)."""
+    fams: list[list[TermSpec]] = []
+    legs: list[int | None] = [None, *range(k)]
+    span = float(np.median(np.ptp(reading_tr, axis=0)))
+    if span > 0:
+        p_max = span / MIN_PERIODS_IN_RANGE
+        p_min = SAMPLES_PER_PERIOD * span / reading_tr.shape[0]
+        periods = p_min * PERIOD_RATIO ** np.arange(int(math.log(p_max / p_min) / math.log(PERIOD_RATIO)) + 1)
+        for leg in legs:
+            fams.append([TermSpec("reading", "periodic", float(p), None, "", leg) for p in periods])
+        for d in (1, 2, 3):
+            fams.append([TermSpec("reading", "polynomial", None, d, "", leg) for leg in legs])
+    if data.directions is not None:
+        fams.append([TermSpec("dir", "step", None, None, "", leg) for leg in legs])
+    if data.temperature is not None:
+        fams.append([TermSpec("temperature", "polynomial", None, 1, "", leg) for leg in legs])
+        fams.append([TermSpec("reading", "polynomial", None, 1, "temperature", leg) for leg in legs])
+    if data.time is not None:
+        for d in (1, 2):
+            fams.append([TermSpec("time", "polynomial", None, d, "", leg) for leg in legs])
+    for name, *_ in _POSE:
+        fams.append([TermSpec(name, "polynomial", None, 2, "", leg) for leg in legs])
+    return fams
+
+
+def _columns(spec: TermSpec, reading, data, w) -> np.ndarray:
+    """Whitened columns ``(n, c·legs)`` of one group: the residual changes by ``−W e_j t``
+    per unit coefficient; the sign is folded into the coefficient (``r ≈ J δ + C c``)."""
+    k = reading.shape[1]
+    vals = _factor_values(spec, reading, data)  # (m, k, c)
+    cols = []
+    for j in _legs(spec, k):
+        for c in range(vals.shape[-1]):
+            cols.append((w[:, :, j] * vals[:, j, c : c + 1]).reshape(-1))
+    return np.stack(cols, axis=1)
+
+
+def _drops(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """:func:`_drop` for a stack of column sets ``c`` ``(g, n, p)`` of equal width (a
+    pseudo-inverse of each ``p × p`` Gram matrix, cut at the rank tolerance)."""
+    cp = c - np.einsum("nr,grp->gnp", q, np.einsum("nr,gnp->grp", q, c))
+    norms = np.linalg.norm(cp, axis=1, keepdims=True)
+    seen = norms > SINE_TOL * np.linalg.norm(c, axis=1, keepdims=True)  # directions the base does not absorb
+    cp = np.where(seen, cp / np.where(seen, norms, 1.0), 0.0)
+    b = np.einsum("gnp,n->gp", cp, r)
+    gram = np.einsum("gnp,gnq->gpq", cp, cp)
+    return np.einsum("gp,gpq,gq->g", b, np.linalg.pinv(gram, rcond=1e-9, hermitian=True), b)
+
+
+def _drop(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> float:
+    """Drop of ``|r|²`` when ``r`` (orthogonal to ``q``) is fitted by ``c`` as well as ``q``."""
+    return float(_drops(q, r, c[None])[0])
+
+
+def best_group(fams, chosen, q, r, reading_tr, train, w_tr, known):
+    """The group with the largest BIC drop when added to the fit whose column basis is ``q``
+    and whose whitened residual is ``r`` (periods refined around the grid's best): ``(spec,
+    drop of χ², its columns' count, BIC drop)``, or ``None`` for an empty library."""
+    n_tr = r.size
+    chi2_now, p_now = float(r @ r), q.shape[1]
+    best = None
+    k = reading_tr.shape[1]
+    same_width = [[s for s in f if s not in chosen and (s.leg is None) == every]
+                  for f in fams for every in (True, False)]
+    for fam in same_width:
+        if not fam:
+            continue
+        drops = _drops(q, r, np.stack([_columns(spec, reading_tr, train, w_tr) for spec in fam]))
+        for spec, drop in zip(fam, drops, strict=True):
+            df = _n_coef(spec) * len(_legs(spec, k))
+            gain = bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known)
+            if best is None or gain > best[3]:
+                best = (spec, float(drop), df, gain)
+    if best is not None and best[0].form == "periodic":
+        spec, drop, df, gain = best
+        grid = spec.period * np.linspace(1 - 2 * (PERIOD_RATIO - 1), 1 + 2 * (PERIOD_RATIO - 1), 41)
+        drops = [_drop(q, r, _columns(spec._replace(period=float(p)), reading_tr, train, w_tr)) for p in grid]
+        i = int(np.argmax(drops))
+        spec, drop = spec._replace(period=float(grid[i])), drops[i]
+        best = (spec, drop, df, bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known))
+    return best
+
+
+BIC_MARGIN = 6.0
+"""A BIC difference above this is strong evidence (Kass and Raftery 1995, "Bayes factors", J.
+Amer. Statist. Assoc. 90, §3.2)."""
+
+
+def challenge(
+    *,
+    train: Any,
+    reading_tr: np.ndarray,
+    white_tr: np.ndarray,
+    w_tr: np.ndarray,
+    jac_base: np.ndarray,
+    jac_effect: np.ndarray,
+    dof0: int,
+    known: bool,
+    alpha: float,
+) -> tuple[str, TermSpec] | None:
+    """Whether the open library's best group ``g`` contests a candidate ``a`` that passed the
+    held-out test: ``("better", g)`` when ``g`` fits better by more than :data:`BIC_MARGIN`
+    while ``a`` adds nothing significant (at ``alpha``) on top of ``g``; ``None`` otherwise (also
+    when ``g`` lies in the span of the base and ``a``: the candidate is its physics).
+
+    NOTE: a test of "``g`` adds to ``a``" is not used: on strong signals (gaps of 10× the noise
+    and more) it rejected correct candidates that pass the held-out test, on the training
+    residual's second-order misfit."""
+    k = reading_tr.shape[1]
+    fams = _library(reading_tr, train, k)
+    n_tr = white_tr.size
+    q_g = basis(jac_base)
+    r0 = white_tr - q_g @ (q_g.T @ white_tr)
+    best = best_group(fams, [], q_g, r0, reading_tr, train, w_tr, known)
+    if best is None:
+        return None
+    spec = best[0]
+    cols = _columns(spec, reading_tr, train, w_tr)
+
+    def chi2_rank(*blocks):
+        q = basis(np.concatenate(blocks, axis=1))
+        res = white_tr - q @ (q.T @ white_tr)
+        return float(res @ res), q.shape[1]
+
+    chi2_0, rank_0 = float(r0 @ r0), q_g.shape[1]
+    chi2_a, rank_a = chi2_rank(jac_base, jac_effect)
+    chi2_g, rank_g = chi2_rank(jac_base, cols)
+    chi2_ag, rank_ag = chi2_rank(jac_base, jac_effect, cols)
+    df_g, df_a = rank_ag - rank_a, rank_ag - rank_g
+    if df_g == 0:
+        return None
+    dof = n_tr - rank_ag
+    gain_a = bic(chi2_0, rank_0, n_tr, known) - bic(chi2_a, rank_a, n_tr, known)
+    gain_g = bic(chi2_0, rank_0, n_tr, known) - bic(chi2_g, rank_g, n_tr, known)
+    if gain_g > gain_a + BIC_MARGIN and nested_p(chi2_g, chi2_ag, df_a, dof, known) >= alpha:
+        return "better", spec
+    return None
+
+
+def discover(
+    *,
+    model: Any,
+    train: Any,
+    test: Any,
+    reading_tr: np.ndarray,
+    reading_te: np.ndarray,
+    white_tr: np.ndarray,
+    white_te: np.ndarray,
+    raw_te: np.ndarray,
+    w_tr: np.ndarray,
+    w_te: np.ndarray,
+    jac_tr: np.ndarray,
+    jac_te: np.ndarray,
+    dof0: int,
+    scale2: float,
+    known: bool,
+    alpha: float,
+) -> tuple[DiscoveredTerms, list[dict[str, Any]], np.ndarray, np.ndarray, bool]:
+    """Forward sparse selection of term groups (see the module docstring) on one data set.
+
+    Inputs (whitened with the base fit's whiteners ``w_tr``/``w_te``, ``(m, k, k)``): the
+    base fit's training and held-out residuals ``white_tr``/``white_te`` (flattened), its
+    held-out raw residuals ``raw_te`` ``(m_te, k)`` (library units), the base Jacobians
+    ``jac_tr``/``jac_te`` (scaled base unknowns), the readings ``reading_tr``/``reading_te``
+    (mm), the base fit's residual dof and noise scale. Returns the selected terms, one report
+    dict per group (JSON form), the change of the scaled base unknowns ``δ`` and the
+    coefficients (library units) of the final fit, and whether the held-out test passes."""
+    k = reading_tr.shape[1]
+    n_tr, n_te = white_tr.size, white_te.size
+    fams = _library(reading_tr, train, k)
+    n_groups = sum(len(f) for f in fams)
+    level = alpha / max(n_groups, 1)
+    chosen: list[TermSpec] = []
+    reports: list[dict[str, Any]] = []
+    c_tr = np.zeros((n_tr, 0))
+    c_te = np.zeros((n_te, 0))
+    sol = np.zeros(jac_tr.shape[1])
+    passed = False
+    for _ in range(MAX_TERMS):
+        a_tr = np.concatenate([jac_tr, c_tr], axis=1)
+        q = basis(a_tr)
+        r = white_tr - q @ (q.T @ white_tr)
+        chi2_now = float(r @ r)
+        p_now = q.shape[1]
+        best = best_group(fams, chosen, q, r, reading_tr, train, w_tr, known)
+        if best is None:
+            break
+        spec, drop, df, gain = best
+        p = nested_p(chi2_now, chi2_now - drop, df, n_tr - p_now - df, known)
+        if gain <= 0 or p >= level:
+            break
+        chosen.append(spec)
+        c_tr = np.concatenate([c_tr, _columns(spec, reading_tr, train, w_tr)], axis=1)
+        c_te = np.concatenate([c_te, _columns(spec, reading_te, test, w_te)], axis=1)
+        a_tr = np.concatenate([jac_tr, c_tr], axis=1)
+        a_te = np.concatenate([jac_te, c_te], axis=1)
+        sol = np.linalg.lstsq(a_tr, -white_tr, rcond=None)[0]
+        # r(z + δ) ≈ r + J δ; the terms enter as + C c with c = −(coefficient): see _columns.
+        r_te = white_te + a_te @ sol
+        t = heldout_chi2(r_te, a_tr, a_te)
+        p_te = heldout_p(t, n_te, dof0, scale2, known)
+        lw = np.linalg.inv(w_te)
+        raw_after = raw_te + np.einsum("mij,mj->mi", lw, (a_te @ sol).reshape(raw_te.shape))
+        gap_after = float(np.sqrt(np.mean(raw_after**2)) * model.report_factor)
+        reports.append({"spec": spec, "gap_after": gap_after, "heldout_p": float(p_te), "p_value": float(p),
+                        "bic_gain": float(gain)})
+        if p_te >= alpha:
+            passed = True
+            break
+    nb = jac_tr.shape[1]
+    coef = -sol[nb:]
+    delta = sol[:nb]
+    if chosen:
+        a_tr = np.concatenate([jac_tr, c_tr], axis=1)
+        cov = np.linalg.pinv(a_tr.T @ a_tr) * scale2
+        std = np.sqrt(np.clip(np.diag(cov)[nb:], 0, None))
+    else:
+        std = np.zeros(0)
+    terms = DiscoveredTerms(tuple(chosen), k)
+    return terms, _term_reports(terms, reports, coef, std, model), delta, coef, passed
+
+
+def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, model) -> list[dict[str, Any]]:
+    out, off = [], 0
+    rf, ru = model.report_factor, model.report_unit
+    for s, step in zip(terms.specs, steps, strict=True):
+        c = _n_coef(s)
+        names = ("sin", "cos") if s.form == "periodic" else ("coefficient",)
+        coefs = []
+        for j in _legs(s, terms.k):
+            for i, nm in enumerate(names):
+                coefs.append({"leg": j + 1, "basis": nm, "value": float(coef[off + i] * rf),
+                              "std": float(std[off + i] * rf), "unit": _unit(s, ru)})
+            off += c
+        d = {
+            "leg": None if s.leg is None else s.leg + 1,
+            "factor": s.factor,
+            "form": s.form,
+            "period": s.period,
+            "period_unit": "mm" if s.form == "periodic" and s.factor == "reading" else None,
+            "degree": s.degree,
+            "times": s.times or None,
+            "coefficients": coefs,
+            "gap_after": step["gap_after"],
+            "heldout_p": step["heldout_p"],
+            "p_value": step["p_value"],
+            "description": describe(s),
+        }
+        if s.form == "periodic":
+            amp = [math.hypot(coefs[2 * i]["value"], coefs[2 * i + 1]["value"]) for i in range(len(coefs) // 2)]
+            d["amplitude"] = amp
+            d["amplitude_unit"] = ru
+        out.append(d)
+    return out

@@ -1,0 +1,202 @@
+"""An independent NumPy simulator of a measurement session on a hexapod, for the hidden-effect
+tests and the benchmark of the discrepancy workflow (written from the physics, not from the
+library's effect registry or its ``_hidden.py``).
+
+A session, as on a real machine: ``n`` poses drawn uniformly in the travel box and visited in
+that (random) order over about two hours (``time``, s); each actuator's approach direction is
+the sign of its last move (``dir``, recorded); the temperature drifts (a settling exponential,
+a slow oscillation and sensor noise: recorded, °C); the pose is measured with Gaussian noise
+σ (µm, ″ per component).
+
+The true machine is a perturbed copy of the nominal geometry (joints and, for struts, the
+zero-reading lengths moved by tens of µm) with one hidden effect. Effects that the library
+registers (its candidate list) and effects it does not:
+
+- ``cyclic_screw``: a ball-screw / encoder cyclic error of each actuator's reading,
+  ``A·sin(2π q / lead + φ_i)`` (amplitude ``A`` µm, lead mm, a random phase per actuator);
+- ``quadratic_reading``: a reading error ``c_i q²`` (``|c_i| q²`` = 0.5–1 µm at 5 mm);
+- ``strut_thermal_scale``: the encoder scale of one actuator only changes with temperature,
+  reading = true change · ``(1 + κ (T − 20 °C))``.
+
+Rotations: ``Rz(ψ)·Ry(θ)·Rx(φ)`` (Wang et al. 2018, "Improved cuckoo calibration method of
+space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5),
+eq. 1), angles in rad; lengths in mm.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+UM = 1e-3
+ARCSEC = np.pi / (180 * 3600)
+T_REF = 20.0
+
+REGISTERED = {
+    "6-UPS": ("strut_scale", "thermal_expansion", "gravity_sag", "backlash", "drift", "tracker_misalignment"),
+    "6-PSS": ("zero_offset", "stroke_scale", "actuator_tilt", "backlash", "thermal_expansion", "drift",
+              "tracker_misalignment"),
+}
+UNREGISTERED = ("cyclic_screw", "quadratic_reading", "strut_thermal_scale")
+
+
+def rotation(a):
+    """``(..., 3)`` angles ``[φ, θ, ψ]`` → ``(..., 3, 3)`` ``Rz(ψ)·Ry(θ)·Rx(φ)``."""
+    f, t, p = a[..., 0], a[..., 1], a[..., 2]
+    cf, sf, ct, st, cp, sp = np.cos(f), np.sin(f), np.cos(t), np.sin(t), np.cos(p), np.sin(p)
+    return np.stack([
+        np.stack([cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf], -1),
+        np.stack([sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf], -1),
+        np.stack([-st, ct * sf, ct * cf], -1),
+    ], -2)
+
+
+def angles(r):
+    """Inverse of :func:`rotation` (|θ| < 90°)."""
+    return np.stack([np.arctan2(r[..., 2, 1], r[..., 2, 2]), -np.arcsin(r[..., 2, 0]),
+                     np.arctan2(r[..., 1, 0], r[..., 0, 0])], -1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Session:
+    """Measured columns (``strokes`` = readings, mm; ``poses`` measured, mm and rad;
+    ``directions`` ±1; ``temperature`` °C; ``time`` s) and the truth (``effect``, its
+    parameters ``truth``, ``period_mm`` of a cyclic error, ``leg`` of a one-strut effect)."""
+
+    strokes: np.ndarray
+    poses: np.ndarray
+    directions: np.ndarray
+    temperature: np.ndarray
+    time: np.ndarray
+    effect: str | None
+    truth: dict
+
+
+def _conditions(rng, n):
+    t = np.cumsum(rng.uniform(25.0, 55.0, n))  # ~2 h for 180 poses
+    tau, amp = rng.uniform(1500, 4000), rng.uniform(1.0, 2.5) * rng.choice([-1, 1])
+    temp = (T_REF + rng.uniform(-1, 1) + amp * (1 - np.exp(-t / tau))
+            + 0.4 * np.sin(2 * np.pi * t / rng.uniform(1800, 3600) + rng.uniform(0, 2 * np.pi))
+            + 0.02 * rng.standard_normal(n))
+    return t, temp
+
+
+def _directions(q):
+    """Sign of each actuator's last move (the first pose: approached from below)."""
+    d = np.sign(np.diff(np.concatenate([q[:1] - 1.0, q]), axis=0))
+    return np.where(d == 0, 1.0, d)
+
+
+def _strut_statics(rot, d, v0, platform, base):
+    """Axial tension per unit payload weight (weight along −z at A's origin)."""
+    r = np.einsum("mjk,ik->mij", rot, platform)
+    s = r + d[:, None] + v0 - base
+    u = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    g = np.concatenate([u, np.cross(r, u)], -1)
+    wrench = np.broadcast_to([0, 0, -1.0, 0, 0, 0], d.shape[:1] + (6,))
+    return np.linalg.solve(np.swapaxes(g, -1, -2), wrench[..., None])[..., 0]
+
+
+def _draw(rng, effect, family, n_legs=6):
+    """True parameters of ``effect`` (physical units: mm, 1/K, rad, mm/s, dimensionless)."""
+    sgn = rng.choice([-1.0, 1.0], n_legs)
+    if effect in ("strut_scale", "stroke_scale"):
+        return {"k": sgn * rng.uniform(300e-6, 600e-6, n_legs)}
+    if effect == "thermal_expansion":
+        return {"alpha": sgn * rng.uniform(1e-6, 2e-6, n_legs) * (1.0 if family == "6-UPS" else 4.0)}
+    if effect == "gravity_sag":
+        return {"c": sgn * rng.uniform(60, 120, n_legs) * UM}
+    if effect == "backlash":
+        return {"b": rng.uniform(1.0, 2.0, n_legs) * UM}
+    if effect == "drift":
+        return {"rate": sgn * rng.uniform(0.5, 1.0, n_legs) * UM / 3600}
+    if effect == "tracker_misalignment":
+        return {"rho": rng.uniform(10, 20, 3) * ARCSEC * rng.choice([-1, 1], 3),
+                "tau": rng.uniform(5, 10, 3) * UM * rng.choice([-1, 1], 3)}
+    if effect == "zero_offset":
+        return {"c": sgn * rng.uniform(2, 4, n_legs) * UM}
+    if effect == "actuator_tilt":
+        return {"alpha": rng.uniform(300, 600, n_legs) * 1e-6 * sgn,
+                "beta": rng.uniform(300, 600, n_legs) * 1e-6 * rng.choice([-1, 1], n_legs)}
+    if effect == "cyclic_screw":
+        return {"amp": 1.0 * UM, "lead": 1.0, "phase": rng.uniform(0, 2 * np.pi, n_legs)}
+    if effect == "quadratic_reading":
+        return {"c": sgn * rng.uniform(0.5, 1.0, n_legs) * UM / 25.0}
+    if effect == "strut_thermal_scale":
+        return {"leg": int(rng.integers(n_legs)), "kappa": float(rng.choice([-1, 1]) * rng.uniform(150e-6, 250e-6))}
+    if effect is None:
+        return {}
+    raise ValueError(f"unknown effect {effect!r}")
+
+
+def _reading_error(effect, p, q, temp):
+    """Reading-side errors: what the encoder shows minus the true length change ``q``."""
+    if effect == "cyclic_screw":
+        return p["amp"] * np.sin(2 * np.pi * q / p["lead"] + p["phase"])
+    if effect == "quadratic_reading":
+        return p["c"] * q**2
+    if effect == "strut_thermal_scale":
+        e = np.zeros_like(q)
+        e[:, p["leg"]] = q[:, p["leg"]] * p["kappa"] * (temp - T_REF)
+        return e
+    return np.zeros_like(q)
+
+
+def session(family: str, geometry: dict, effect: str | None, rng: np.random.Generator, *, half: np.ndarray,
+            n: int = 180, sigma_um: float = 0.1, sigma_arcsec: float = 0.1,
+            perturb_um: float = 30.0) -> Session:
+    """Simulate one session of ``family`` (``"6-UPS"``: ``geometry`` has ``base``, ``platform``,
+    ``v0``, ``lengths0``; ``"6-PSS"``: ``upper``, ``lower``, ``v0``, vertical sliders) with
+    ``effect`` hidden; poses uniform in ``±half`` (mm, rad)."""
+    g = {k: np.array(v, dtype=float) for k, v in geometry.items()}
+    for k in ("base", "platform", "upper", "lower"):
+        if k in g:
+            g[k] = g[k] + perturb_um * UM * rng.standard_normal(g[k].shape)
+    if "lengths0" in g:
+        g["lengths0"] = g["lengths0"] + perturb_um * UM * rng.standard_normal(6)
+    p = _draw(rng, effect, family)
+    true = rng.uniform(-half, half, (n, 6))
+    t, temp = _conditions(rng, n)
+    rot = rotation(true[:, 3:])
+    dt = temp - T_REF
+    if family == "6-UPS":
+        s = np.einsum("mjk,ik->mij", rot, g["platform"]) + true[:, None, :3] + g["v0"] - g["base"]
+        length = np.linalg.norm(s, axis=-1)
+        if effect == "gravity_sag":
+            length = length - p["c"] * _strut_statics(rot, true[:, :3], g["v0"], g["platform"], g["base"])
+        if effect == "thermal_expansion":
+            length = length / (1 + p["alpha"] * dt[:, None])  # the strut is longer: less extension needed
+        q = length - g["lengths0"]
+    else:
+        w = np.einsum("mjk,ik->mij", rot, g["upper"]) + true[:, None, :3] + g["v0"] - g["lower"]
+        rod = np.linalg.norm(g["upper"] + g["v0"] - g["lower"], axis=-1)
+        if effect == "thermal_expansion":
+            rod = rod * (1 + p["alpha"] * dt[:, None])
+        axis = np.broadcast_to([0.0, 0.0, 1.0], (6, 3))
+        if effect == "actuator_tilt":
+            a, b = p["alpha"], p["beta"]
+            axis = np.stack([np.cos(a) * np.sin(b), -np.sin(a), np.cos(a) * np.cos(b)], -1)
+        wn = np.einsum("mij,ij->mi", w, axis)
+        q = wn - np.sqrt(rod**2 - np.sum(w**2, -1) + wn**2)
+    reading = q.copy()
+    if effect in ("strut_scale", "stroke_scale"):
+        reading = q / (1 + p["k"])
+    directions = _directions(q)
+    if effect == "backlash":
+        reading = reading + 0.5 * p["b"] * directions
+    if effect == "drift":
+        reading = reading + p["rate"] * t[:, None]
+    if effect == "zero_offset":
+        reading = reading + p["c"]
+    reading = reading + _reading_error(effect, p, q, temp)
+    measured = true.copy()
+    if effect == "tracker_misalignment":
+        r_m = rotation(p["rho"])
+        measured[:, 3:] = angles(np.einsum("kj,mkl->mjl", r_m, rot))
+        measured[:, :3] = (true[:, :3] + g["v0"] - p["tau"]) @ r_m - g["v0"]
+    measured[:, :3] += sigma_um * UM * rng.standard_normal((n, 3))
+    measured[:, 3:] += sigma_arcsec * ARCSEC * rng.standard_normal((n, 3))
+    if effect == "cyclic_screw":
+        p = {**p, "period_mm": p["lead"]}
+    return Session(reading, measured, directions, temp, t, effect, p)
