@@ -59,6 +59,7 @@ bench: bench-deps
 	$(BIN)/python benchmarks/tracker_points.py
 	$(BIN)/python benchmarks/tracker_points.py --timing
 	$(BIN)/python benchmarks/bbob.py
+	$(BIN)/python benchmarks/cma_vs_pycma.py
 
 clean:
 	rm -rf $(VENV) build site *.egg-info
