@@ -18,11 +18,13 @@ from stewart_jax import discrepancy as dc
 
 # NOTE: skipped until a deadlock is understood. On these 180-pose sessions the batched base fit
 # (``fit_candidates`` → ``_base_fits``, the batched LM's refill loop) waits forever inside XLA's CPU
-# runtime in about half the runs: the main thread in ``BlockUntilReady``, every pool thread idle,
-# 0 % CPU; with ``--xla_cpu_use_xnnpack=false`` and with ``--xla_cpu_use_thunk_runtime=false`` alike.
+# runtime in some runs: the main thread in ``BlockUntilReady``, every pool thread idle, 0 % CPU;
+# with ``--xla_cpu_use_xnnpack=false`` and with ``--xla_cpu_use_thunk_runtime=false`` alike. Measured:
+# 3 of 3 runs hung with the machine's load average at 10–13 (other jobs running), 0 of 4 at 3–4
+# (default settings, without async CPU dispatch, with EQX_ON_ERROR=nan), so a race, not yet found.
 # A test that can hang must not run in CI; the rates are measured by
 # ``benchmarks/discrepancy_session.py``, which has not stalled.
-pass
+pytestmark = pytest.mark.skip(reason="the batched base fit can deadlock in XLA's CPU runtime on these sessions")
 
 SEEDS = (0, 1)
 N_POSES = 180
