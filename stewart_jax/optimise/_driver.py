@@ -354,14 +354,14 @@ def check_box(lower: Array, upper: Array) -> None:
 
 def check_scalar_objective(fn, x: Array) -> None:
     """Raise unless ``fn(x)`` returns one real number (checked on shapes only, before tracing)."""
-    out = jax.eval_shape(fn, x)
-    shapes = [leaf.shape for leaf in jax.tree.leaves(out)]
+    leaves = jax.tree.leaves(jax.eval_shape(fn, x))
+    shapes = [leaf.shape for leaf in leaves]
     if len(shapes) != 1 or shapes[0] not in ((), (1,)):
         raise ValueError(f"the objective must return one number per point (a scalar), got shape(s) {shapes}; "
                          "for a residual vector use least_squares, or return its sum of squares")
-    if not jnp.issubdtype(jax.tree.leaves(out)[0].dtype, jnp.floating) and not jnp.issubdtype(
-            jax.tree.leaves(out)[0].dtype, jnp.integer):
-        raise ValueError(f"the objective must return a real number, got dtype {jax.tree.leaves(out)[0].dtype}")
+    dtype = leaves[0].dtype
+    if not (jnp.issubdtype(dtype, jnp.floating) or jnp.issubdtype(dtype, jnp.integer)):
+        raise ValueError(f"the objective must return a real number, got dtype {dtype}")
 
 
 def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
@@ -371,7 +371,7 @@ def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     n_dim = lower.shape[-1]
     schedule = getattr(solver, "restart_schedule", None)
     runs = [solver] if schedule is None else schedule(n_dim, max_evaluations)
-    fixed = runs[0].init_evaluations(n_dim) + runs[0].final_evaluations(n_dim)
+    fixed = runs[0].min_evaluations(n_dim)
     if fixed > max_evaluations:
         raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} calls that "
                          "initialisation alone needs")
@@ -382,16 +382,15 @@ def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     # still costs its steps (both branches of lax.cond are evaluated), under jit alone it does not.
     used = jnp.asarray(0, jnp.int32)
     done = jnp.asarray(False)
-    results, states = [], []
+    results = []
     for k, run_solver in zip(jax.random.split(key, len(runs)), runs, strict=True):
         need = run_solver.init_evaluations(n_dim) + run_solver.step_evaluations(n_dim)[1]
         skip = done | (used + need > max_evaluations)
-        r, st = _run(fn, run_solver, lower, upper, y0, k, max_evaluations, used, skip)
+        r, state = _run(fn, run_solver, lower, upper, y0, k, max_evaluations, used, skip)
         results.append(r)
-        states.append(st)
         used = used + r.n_evaluations
         done = done | (r.status == RESULTS.target_reached)
-    return _combine_runs(results), states[-1]
+    return _combine_runs(results), state
 
 
 def _combine_runs(results: list[OptimiseResult]) -> OptimiseResult:
