@@ -87,6 +87,7 @@ class UPSMechanism(AbstractMechanism):
     """
 
     family: ClassVar[str] = "6-UPS"
+    reading_unit: ClassVar[str] = "mm"
 
     base: Float[Array, "6 3"]
     platform: Float[Array, "6 3"]
@@ -126,6 +127,11 @@ class UPSMechanism(AbstractMechanism):
         return jnp.concatenate(
             [self.platform.reshape(*batch, 18), self.base.reshape(*batch, 18), self.lengths0], axis=-1
         )
+
+    @property
+    def param_units(self) -> tuple[str, ...]:
+        """Every parameter is a length (mm)."""
+        return ("mm",) * N_PARAMS_UPS
 
     @property
     def param_names(self) -> tuple[str, ...]:
