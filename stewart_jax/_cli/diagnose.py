@@ -1,5 +1,5 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV, with the discrepancy model of the geometry's family: 6-PSS or 6-UPS) and
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS) and
 ``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
 

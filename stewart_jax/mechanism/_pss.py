@@ -385,6 +385,14 @@ class _IKParts(NamedTuple):
 
 
 def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
+    """Eq. 4 of the paper's mechanism on arrays, with the intermediates its closed-form Jacobians
+    reuse.
+
+    NOTE: the same leg as :func:`leg_stroke` (the component form the population objective and the
+    batched fast path use), coded a second time: the rotation applied by ``einsum`` here and by
+    explicit multiply-adds there round differently (up to 2e-14 mm apart on 2 000 poses of the
+    actual geometry), and the calibrations, studies and published tables hinge on these exact
+    bits. Expressing one through the other would move every seeded result."""
     rot = rotation_matrix(poses[..., 3:])
     upper = geometry.upper
     w = jnp.einsum("...jk,ik->...ij", rot, upper)
