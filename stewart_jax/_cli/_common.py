@@ -45,9 +45,10 @@ def noise_args(p: argparse.ArgumentParser) -> None:
 
 def geometry_args(p: argparse.ArgumentParser, *, true: bool) -> None:
     """``--geometry`` (the nominal model) and, for simulations, the true mechanism."""
+    from ..mechanism._registry import presets
+
     p.add_argument("--geometry", "--nominal", dest="geometry", default="nominal",
-                   help="nominal (model) geometry: a preset (nominal, actual, rubin_camera, rubin_m2, "
-                        "fast_stewart, …) or a JSON/TOML geometry file")
+                   help=f"nominal (model) geometry: a preset ({', '.join(presets())}) or a JSON/TOML geometry file")
     param_set_arg(p)
     if true:
         p.add_argument("--true", default=None,

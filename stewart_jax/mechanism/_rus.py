@@ -122,8 +122,7 @@ class RUSMechanism(AbstractMechanism):
         self.crank_limits = None if crank_limits is None else _limits(crank_limits)
         self.travel = None if travel is None else _travel(travel)
         self.param_set = param_set
-        if crank_zero is None:
-            self.crank_zero = jnp.zeros(N_LEGS)  # the legs' own crank angles at the zero pose, below
+        if crank_zero is None:  # the zero pose's crank angles: every reading 0 there
             crank_zero = self._crank_angles(jnp.zeros(6))[0]
         self.crank_zero = field_array(crank_zero, name, "crank_zero", (N_LEGS,))
 
