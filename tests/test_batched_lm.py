@@ -199,6 +199,8 @@ def test_leg_parameter_jacobian_is_the_autodiff_jacobians_leg_blocks(name):
     m = preset(base) if not pset else preset(base).with_param_set(pset)
     if m.leg_parameters is None:
         pytest.skip(f"{m.family}'s legs share parameters")
+    if type(m).leg_parameter_jacobian is AbstractMechanism.leg_parameter_jacobian:
+        pytest.skip(f"{m.family} cuts its blocks from the default Jacobian (checked by central differences)")
     poses = sj.random_poses(jax.random.key(2), 5, half=sj.calibration.reachable_travel(m))
     blocks = np.asarray(jax.jit(type(m).leg_parameter_jacobian)(m, poses))
     ad = np.asarray(jax.jit(AbstractMechanism.parameter_jacobian)(m, poses)).reshape(5, 6, -1)
