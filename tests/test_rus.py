@@ -148,11 +148,12 @@ def test_simulate_calibrate_report_export_through_the_command_line(rotary, tmp_p
     text = report.read_text()
     assert "rad²" in text and "| crank_zero1 | rad |" in text and "µrad |" in text
     assert not any("crank_zero" in line and "µm" in line for line in text.splitlines())
-    nominal, true, calibrated = (sj.load_mechanism(p) for p in (geo, true_json, out_geo))
-    val = sj.validation_poses(jax.random.key(9), 42, half=sj.calibration.reachable_travel(nominal))
-    before = np.abs(np.asarray(sj.control_error(nominal, true, val).errors)).max()
-    after = np.abs(np.asarray(sj.control_error(calibrated, true, val).errors)).max()
-    assert after < 1e-3 * before, (before, after)
+    nominal, true, calibrated = (np.asarray(sj.load_mechanism(p).params) for p in (geo, true_json, out_geo))
+    # the true mechanism is the nominal one perturbed by 0.5 mm and 0.5 mrad (σ); the calibration
+    # recovers both kinds of parameter to a few hundredths of that (predicted std ~10 µm, ~20 µrad)
+    for part in (slice(0, 48), slice(48, 54)):
+        after, before = (float(np.sqrt(np.mean((x - true)[part] ** 2))) for x in (calibrated, nominal))
+        assert after < 0.1 * before, (part, after, before)
     capsys.readouterr()
 
 

@@ -74,7 +74,8 @@ def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: PS
     """Rod lengths change with temperature: ``L_i(T) = L_i·(1 + α_i·(T − 20 °C))``, ``α_i`` in
     1/K (one coefficient per rod: rods of one material share it, but their temperatures need
     not); ``L_i`` the base model's rod length."""
-    length0 = state.rod_lengths
+    length0 = (jnp.linalg.norm(state.upper + state.v0 - state.lower, axis=-1) if state.rod_lengths is None
+               else state.rod_lengths)
     return state._replace(dlength=state.dlength + length0 * theta * (data.temperature[:, None] - T_REF_C))
 
 
