@@ -37,6 +37,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "sigma_um": args.sigma_um,
         "sigma_arcsec": args.sigma_arcsec,
         "sigma_stroke_um": args.sigma_stroke_um,
+        "sigma_reading_urad": args.sigma_reading_urad,
         "holdout_fraction": args.holdout_fraction,
         "seed": args.seed,
         "alpha": args.alpha,
