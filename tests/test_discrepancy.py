@@ -146,7 +146,7 @@ def test_whitener_inverts_the_pose_noise_covariance(model):
     rng = np.random.default_rng(1)
     poses = rng.uniform(-1, 1, (5, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
     data = sj.make_calibration_data(np.zeros((5, 6)), poses)
-    w = np.asarray(model.whitener(model.nominal, data))
+    w = np.asarray(model.whitener(model.base_initial, data))
     h = 1e-6
     g = sj.nominal_geometry()
     jac = np.stack([(np.asarray(sj.inverse_kinematics(g, poses + h * np.eye(6)[k]))
@@ -157,7 +157,7 @@ def test_whitener_inverts_the_pose_noise_covariance(model):
                                atol=1e-6)
     # The model's covariance agrees with J Σ Jᵀ from the analytic kinematic Jacobian.
     ja = np.asarray(sj.kinematic_jacobian(g, jnp.asarray(poses)))
-    np.testing.assert_allclose(model.noise_covariance(model.nominal, data),
+    np.testing.assert_allclose(model.noise_covariance(model.base_initial, data),
                                np.einsum("mik,k,mjk->mij", ja, sig**2, ja), rtol=1e-10, atol=1e-22)
 
 

@@ -243,7 +243,7 @@ def test_legacy_6pss_model_file_still_loads(tmp_path):
 
 
 def test_models_are_chosen_by_family_with_clear_errors(camera):
-    assert dc.model_families() == {"6-PSS": "6-pss", "6-UPS": "6-ups"}
+    assert dc.model_families() == {"6-PSS": "6-pss", "6-UPS": "6-ups", "6-RUS": "6-rus"}
     assert isinstance(dc.model_for(sj.nominal_geometry()), dc.PSSModel)
     with pytest.raises(ValueError, match="6-UPS"):
         dc.pss_model(camera)

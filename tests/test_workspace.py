@@ -114,6 +114,7 @@ class _Gap(M.AbstractMechanism):
     """A toy mechanism reachable for x ∈ [0, 2] ∪ [3, 5]: its first exit along +x is at 2."""
 
     family: ClassVar[str] = "toy-gap"
+    reading_unit: ClassVar[str] = "mm"
     v0: Any
 
     def __init__(self):
@@ -122,6 +123,13 @@ class _Gap(M.AbstractMechanism):
     @property
     def params(self):
         return jnp.zeros(1)
+
+    @property
+    def param_units(self):
+        return ("mm",)
+
+    def moving_joints(self, poses):
+        return jnp.zeros((*poses.shape[:-1], 6, 3))
 
     def with_params(self, params):
         return self

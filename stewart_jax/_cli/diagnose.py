@@ -1,5 +1,5 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV, with the discrepancy model of the geometry's family: 6-PSS or 6-UPS) and
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS) and
 ``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
 
@@ -16,9 +16,9 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ._common import check_outputs
 
     check_outputs(args, json="--json", out_model="--out-model")
-    data = read_csv(args.file)
     geometry = load_mechanism(args.geometry)
-    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
+    data = read_csv(args.file, reading_unit=geometry.reading_unit)
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, _reading_sigma(args, geometry))
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     report = diagnose(
         data,
@@ -37,6 +37,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "sigma_um": args.sigma_um,
         "sigma_arcsec": args.sigma_arcsec,
         "sigma_stroke_um": args.sigma_stroke_um,
+        "sigma_reading_urad": args.sigma_reading_urad,
         "holdout_fraction": args.holdout_fraction,
         "seed": args.seed,
         "alpha": args.alpha,
@@ -65,6 +66,19 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
         print(json_text(out, indent=None), end="")
     return 0
+
+
+def _reading_sigma(args: argparse.Namespace, geometry) -> float:
+    """The reading noise in the readings' report unit: ``--sigma-stroke-um`` (linear readings) or
+    ``--sigma-reading-urad`` (a rotary family's crank angles), the other refused."""
+    if geometry.reading_unit == "mm":
+        if args.sigma_reading_urad:
+            raise ValueError(f"--sigma-reading-urad is for crank angles; a {geometry.family} reads mm "
+                             "(--sigma-stroke-um)")
+        return args.sigma_stroke_um
+    if args.sigma_stroke_um:
+        raise ValueError(f"a {geometry.family} reads crank angles: give their noise as --sigma-reading-urad")
+    return args.sigma_reading_urad
 
 
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
@@ -99,6 +113,8 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
     p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="actuator reading noise σ (µm)")
+    p.add_argument("--sigma-reading-urad", type=float, default=0.0,
+                   help="a rotary family's crank-reading noise σ (µrad)")
     p.add_argument("--estimate-noise", action="store_true",
                    help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")

@@ -5,7 +5,8 @@ The workflow (:func:`diagnose`, :func:`diagnose_many`) is generic over
 :class:`AbstractDiscrepancyModel`. The 6-PSS calibration model of Wang et al. 2018, "Improved
 cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
 and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are registered under
-``"6-pss"``, the 6-UPS strut model (:class:`UPSModel`) and its effects under ``"6-ups"``;
+``"6-pss"``, the 6-UPS strut model (:class:`UPSModel`) and its effects under ``"6-ups"``, the
+6-RUS rotary model (:class:`RUSModel`) and its effects under ``"6-rus"``;
 :func:`model_for` picks the model of a mechanism's family, :func:`effects_for` lists a model's
 effects and :func:`simulate_hidden_effect` hides any of them in simulated measurements.
 
@@ -18,7 +19,7 @@ cable-robot simulator; ``plot_residuals`` (matplotlib) likewise.
 
 from typing import Any
 
-from . import _effects as _effects, _ups_effects as _ups_effects  # register the 6-PSS and 6-UPS candidates
+from . import _effects as _effects, _rus as _rus, _ups_effects as _ups_effects  # register every family's candidates
 from ._driver import (
     MIN_DOF as MIN_DOF,
     check_sizes as check_sizes,
@@ -68,6 +69,7 @@ from ._report import (
     FittedModel as FittedModel,
     SkippedEffect as SkippedEffect,
 )
+from ._rus import RUSModel as RUSModel, RUSState as RUSState, rus_model as rus_model
 from ._statistics import (
     Bin as Bin,
     FactorDependence as FactorDependence,

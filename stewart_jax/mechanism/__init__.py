@@ -2,7 +2,8 @@
 
 - :class:`AbstractMechanism` — a pytree of geometry with ``params``/``with_params``, inverse
   kinematics with a reachability margin, pose and parameter Jacobians, a geometry-file dict.
-- :class:`PSSMechanism` (alias ``Geometry``) — the 6-PSS of Wang et al. (2018).
+- :class:`PSSMechanism` (alias ``Geometry``) — the 6-PSS of Wang et al. (2018);
+  :class:`UPSMechanism` — strut hexapods; :class:`RUSMechanism` — rotary (crank) hexapods.
 - :func:`forward_kinematics` — one batched Newton solve with per-pose status for every family.
 - Families and presets are registries (:func:`register_family`, :func:`register_preset`);
   :func:`load_mechanism` reads a preset name or a JSON/TOML geometry file naming its family.
@@ -49,6 +50,7 @@ from ._registry import (
     register_preset as register_preset,
     save_mechanism as save_mechanism,
 )
+from ._rus import RUSMechanism as RUSMechanism, rotary_stewart as rotary_stewart
 from ._ups import (
     FAST_STEWART_TRAVEL as FAST_STEWART_TRAVEL,
     UPSMechanism as UPSMechanism,
