@@ -24,7 +24,7 @@ from stewart_jax.calibration import PointData
 RANGE_UM, ACROSS_UM_PER_M = 5.0, 2.5
 N_POSES = 30
 CANDIDATES = ("strut_scale", "backlash")
-SEEDS = range(4)
+SEEDS = range(3)
 SCALE_PPM = (2000.0, 4000.0)
 """The hidden strut scale errors (ppm): a tracker's micrometres see the simulator's 300–600 ppm
 (1–2 µm on the camera's strokes of ±4 mm RMS) only with hundreds of poses."""
@@ -126,16 +126,16 @@ def reports(camera, setup):
 
 
 def test_a_hidden_strut_scale_is_named(reports):
-    # strut scale errors of 2000–4000 ppm on the camera's strokes: named in every one of the
-    # seeds measured (4 of 4); 3 of 4 allows one miss.
+    # strut scale errors of 2000–4000 ppm on the camera's strokes: named in each of the 4 seeds
+    # measured first and of these 3; 2 of 3 allows one miss.
     named = [r.named_effect for (e, _), r in reports.items() if e == "strut_scale"]
     assert sum(n == "strut_scale" for n in named) >= len(SEEDS) - 1, named
     assert all(n in (None, "strut_scale") for n in named), named
 
 
 def test_no_alarm_without_a_hidden_effect(reports):
-    # at the false-alarm level 0.05, 4 null sessions expect 0.2 detections; 2 or more has
-    # probability 1.4 %, and a name must never be given where nothing is hidden
+    # at the false-alarm level 0.05, 3 null sessions expect 0.15 detections; 2 or more has
+    # probability 0.7 %, and a name must never be given where nothing is hidden
     null = [r for (e, _), r in reports.items() if e is None]
     assert sum(r.detected for r in null) <= 1, [r.detect_p_value for r in null]
     assert all(r.named_effect is None for r in null), [r.named_effect for r in null]
