@@ -13,6 +13,8 @@ pose shifted by the pivot: ``X Y Z = d + v0``. The configuration written here th
   ``MIN_LIMIT``/``MAX_LIMIT``;
 - bounds each axis by the mechanism's workspace along that axis from the pivot pose
   (:func:`~stewart_jax.mechanism.max_travel`), in the controller's shifted coordinates;
+- names LinuxCNC's I/O controller (``[EMCIO]EMCIO = io``: without it LinuxCNC 2.9 starts but never
+  leaves E-stop) and an empty tool table;
 - sets millimetres and degrees, and holds ``tool-offset``, ``spindle-offset`` and ``screw-lead`` at 0:
   ``genhexkins`` adds the first two to the ``z`` of every platform and base joint, which moves the
   rotation centre off the calibrated pivot, and the third corrects for screw rotation that a
