@@ -126,16 +126,18 @@ def reports(camera, setup):
 
 
 def test_a_hidden_strut_scale_is_named(reports):
-    # strut scale errors of 2000–4000 ppm on the camera's strokes: named in each of the 4 seeds
-    # measured first and of these 3; 2 of 3 allows one miss.
+    # strut scale errors of 2000–4000 ppm on the camera's strokes: named in 8 of 8 seeds measured
+    # (gap 9–12 µm before, 7–7.7 µm after, noise floor ~7 µm); 2 of 3 allows one miss.
     named = [r.named_effect for (e, _), r in reports.items() if e == "strut_scale"]
     assert sum(n == "strut_scale" for n in named) >= len(SEEDS) - 1, named
     assert all(n in (None, "strut_scale") for n in named), named
 
 
 def test_no_alarm_without_a_hidden_effect(reports):
-    # at the false-alarm level 0.05, 3 null sessions expect 0.15 detections; 2 or more has
-    # probability 0.7 %, and a name must never be given where nothing is hidden
+    # a name must never be given where nothing is hidden: 0 of 8 null sessions measured. The
+    # detection fired on 2 of those 8 (p = 0.012, 0.031) against a nominal false-alarm level of
+    # 0.05 (P(≥ 2 of 8) = 5.7 % for an exact test): possibly anti-conservative on points, not yet
+    # understood. Of these 3 seeds one detects (seed 1); 1 of 3 is allowed.
     null = [r for (e, _), r in reports.items() if e is None]
     assert sum(r.detected for r in null) <= 1, [r.detect_p_value for r in null]
     assert all(r.named_effect is None for r in null), [r.named_effect for r in null]
