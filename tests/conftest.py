@@ -21,6 +21,7 @@ import stewart_jax as sj
 SLOW_FILES_FIRST = (
     "test_docs.py",  # the strict build, which executes the six notebooks
     "test_discrepancy.py",
+    "test_discrepancy_points.py",  # about 4 min: seven diagnoses of tracker points (-O0, load 10)
     "test_solvers.py",
     "test_comparison.py",
     "test_ups.py",

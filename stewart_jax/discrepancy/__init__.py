@@ -8,7 +8,9 @@ and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are re
 ``"6-pss"``, the 6-UPS strut model (:class:`UPSModel`) and its effects under ``"6-ups"``, the
 6-RUS rotary model (:class:`RUSModel`) and its effects under ``"6-rus"``;
 :func:`model_for` picks the model of a mechanism's family, :func:`effects_for` lists a model's
-effects and :func:`simulate_hidden_effect` hides any of them in simulated measurements.
+effects and :func:`simulate_hidden_effect` hides any of them in simulated measurements. A laser
+tracker's points (:func:`point_rows`) are questioned by :func:`points_model`, the family's model
+seen through the tracker with its noise.
 
 The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
 parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
@@ -47,6 +49,12 @@ from ._hidden import (
     simulate_hidden_effect as simulate_hidden_effect,
     true_control_error as true_control_error,
     write_hidden_csv as write_hidden_csv,
+)
+from ._points import (
+    PointRows as PointRows,
+    PointsModel as PointsModel,
+    point_rows as point_rows,
+    points_model as points_model,
 )
 from ._pss import (
     PSS_MODEL_NAME as PSS_MODEL_NAME,
