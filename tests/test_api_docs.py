@@ -1,7 +1,9 @@
 """The API reference: every public name of the package has an entry in ``docs/api/*.md``, every
-member an entry lists exists, and every subpackage has a page. No build is needed (the strict
-build, which renders these entries, is ``tests/test_docs.py``): a file of its own, so that the
-test workers do not wait for the build to run these.
+member an entry lists exists, and every subpackage has a page. The public surface stays small,
+and every name that left it still answers from its old place with a warning naming its
+replacement (the table of ``stewart_jax/_moved.py``, published as ``docs/api/moved.md``). No
+build is needed (the strict build, which renders these entries, is ``tests/test_docs.py``): a
+file of its own, so that the test workers do not wait for the build to run these.
 """
 
 from __future__ import annotations
@@ -9,8 +11,13 @@ from __future__ import annotations
 import ast
 import importlib
 import re
+import warnings
 from pathlib import Path
 from types import ModuleType
+
+import pytest
+
+from stewart_jax import _moved
 
 ROOT = Path(__file__).resolve().parents[1]
 API = ROOT / "docs" / "api"
@@ -99,4 +106,43 @@ def test_listed_members_exist():
 
 def test_every_subpackage_has_an_api_page():
     pages = {p.stem for p in API.glob("*.md")}
-    assert pages == {"index"} | {p.rsplit(".", 1)[-1] for p in PACKAGES[1:]}
+    assert pages == {"index", "moved"} | {p.rsplit(".", 1)[-1] for p in PACKAGES[1:]}
+
+
+# --- a small public surface, and the names that left it ----------------------------------------------
+
+MAX_PUBLIC_NAMES = 200  # all namespaces together; a name in the core and a subpackage counts twice
+
+
+def test_the_public_surface_stays_small():
+    counts = {package: len(public_names(importlib.import_module(package))) for package in PACKAGES}
+    assert sum(counts.values()) < MAX_PUBLIC_NAMES, counts
+
+
+MOVED = [(package, name) for package, names in _moved.MOVED.items() for name in names]
+
+
+@pytest.mark.parametrize(("package", "name"), MOVED, ids=[f"{p}.{n}" for p, n in MOVED])
+def test_a_moved_name_warns_names_its_replacement_and_is_not_listed(package, name):
+    module = importlib.import_module(package)
+    where, replacement = _moved.MOVED[package][name]
+    with pytest.warns(DeprecationWarning, match=re.escape(f"{package}.{name} is no longer public; use {replacement}")):
+        obj = getattr(module, name)
+    # the same object as at its new place (imported there independently of the shim)
+    location, attr = where.split(":")
+    assert obj is getattr(importlib.import_module(location), attr)
+    assert name not in dir(module) and name not in public_names(module) and name not in vars(module)
+
+
+def test_an_unknown_name_is_still_an_attribute_error():
+    for package in PACKAGES:
+        module = importlib.import_module(package)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(AttributeError, match="no_such_name"):
+                module.no_such_name  # noqa: B018
+
+
+def test_the_moved_page_is_current():
+    assert (API / "moved.md").read_text(encoding="utf-8") == _moved.moved_markdown(), (
+        "docs/api/moved.md is stewart_jax._moved.moved_markdown(): write it again after editing the table")

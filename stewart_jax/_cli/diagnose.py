@@ -102,7 +102,9 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    from ..discrepancy import PSS_MODEL_NAME, effect_names, model_families
+    from ..discrepancy import effect_names
+    from ..discrepancy._families import model_families
+    from ..discrepancy._pss import PSS_MODEL_NAME
 
     names = effect_names(PSS_MODEL_NAME)
     per_family = "; ".join(f"{fam}: {', '.join(effect_names(m))}" for fam, m in model_families().items())
