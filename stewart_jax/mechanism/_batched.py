@@ -41,7 +41,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import MAX_ANGLE_RAD, check_array, check_poses
 from ._abstract import AbstractMechanism, IKSolution
 from ._kinematics import FKSolution, ik_and_jacobian
-from ._pss import PSSMechanism, leg_stroke
+from ._pss import PSSMechanism, slider_leg
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: through x¹³ and x¹⁴. For |x| ≤ 0.5 the
 # truncation error is < 5e-17 and the Horner evaluation agrees with libm to 1 ulp (checked
@@ -81,14 +81,15 @@ def _rotation_rows(angles, sincos):
 
 
 def _ik_rows(geometry: PSSMechanism, poses_soa, sincos):
-    """Eq. 4 leg by leg on rows; returns (strokes, margin) as lists of 6 rows."""
+    """Eq. 4 leg by leg on rows (the mechanism's own leg, :func:`~stewart_jax.mechanism._pss.slider_leg`);
+    returns (strokes, margin) as lists of 6 rows."""
     r = _rotation_rows(poses_soa[3:6], sincos)
     t = [r[0:3], r[3:6], r[6:9]]
     d = [poses_soa[0], poses_soa[1], poses_soa[2]]
     upper = geometry.upper
     e = upper + geometry.v0 - geometry.lower
-    legs = [leg_stroke(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
-    return [q for q, _ in legs], [margin for _, margin in legs]
+    legs = [slider_leg(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
+    return [leg.strokes for leg in legs], [leg.margin for leg in legs]
 
 
 def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..."]) -> IKSolution:
