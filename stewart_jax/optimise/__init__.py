@@ -34,6 +34,8 @@ from ._driver import (
     AbstractPopulationSolver as AbstractPopulationSolver,
     AbstractSolver as AbstractSolver,
     PopulationState as PopulationState,
+    RestartSchedule as RestartSchedule,
+    RestartState as RestartState,
     draw as draw,
     evaluate as evaluate,
     greedy as greedy,
