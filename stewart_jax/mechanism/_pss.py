@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import valid_poses
+from .._checks import field_array, field_numpy, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, check_keys, register_family, register_preset
@@ -107,7 +107,7 @@ class PSSMechanism(AbstractMechanism):
         self.lengths = None if rod_lengths is None else _positive(rod_lengths, "rod_lengths")
         if tilt is None and param_set == "54":
             tilt = jnp.zeros(2 * N_LEGS)
-        self.tilt = None if tilt is None else _as_float64(tilt, "tilt", (2 * N_LEGS,))
+        self.tilt = None if tilt is None else field_array(tilt, "PSSMechanism", "tilt", (2 * N_LEGS,), unit="mrad")
         self.param_set = param_set
 
     @property
@@ -507,7 +507,7 @@ def _tilted(n: Float[Array, "6 3"], tilt: Float[Array, "12"]) -> Float[Array, "6
 def _unit_axes(x: ArrayLike) -> Array:
     if isinstance(x, jax.core.Tracer):
         return x
-    a = _checked_numpy(x, "axes", (N_LEGS, 3))
+    a = field_numpy(x, "PSSMechanism", "axes", (N_LEGS, 3))
     norm = np.linalg.norm(a, axis=-1)
     if np.any(np.abs(norm - 1.0) > 1e-6):
         raise ValueError(f"6-PSS axes must be unit vectors (one per leg, in B), got norms {norm.round(9).tolist()}")
@@ -515,14 +515,7 @@ def _unit_axes(x: ArrayLike) -> Array:
 
 
 def _positive(x: ArrayLike, name: str) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x
-    a = _checked_numpy(x, name, (N_LEGS,))
-    if np.any(a <= 0):
-        bad = np.flatnonzero(a <= 0)
-        raise ValueError(f"6-PSS {name} must be positive (mm): leg(s) {(bad + 1).tolist()} have "
-                         f"{a[bad].tolist()} (all: {a.tolist()})")
-    return jnp.asarray(a)
+    return field_array(x, "PSSMechanism", name, (N_LEGS,), positive=True, unit="mm")
 
 
 def _default_param_set(d: dict[str, Any]) -> str:
@@ -549,22 +542,7 @@ def rod_lengths(geometry: PSSMechanism) -> Float[Array, "6"]:
 
 
 def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x  # traced (jit/vmap): validated where the concrete value was built
-    return jnp.asarray(_checked_numpy(x, name, shape))
-
-
-def _checked_numpy(x: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``x`` as float64 NumPy, its trailing shape and finiteness checked.
-
-    NOTE: checks stay in NumPy: under ``jit`` even ``jnp.asarray`` of a constant is staged
-    out as a tracer, which a NumPy conversion would then reject."""
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[-len(shape):] != shape:
-        raise ValueError(f"Geometry.{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"Geometry.{name} contains NaN or inf: {a.tolist()}")
-    return a
+    return field_array(x, "PSSMechanism", name, shape, unit="mm")
 
 
 # Wang et al. (2018), Table 1 (mm). Rows: rod 1..6.
@@ -609,7 +587,7 @@ _ACTUAL_LOWER = np.array(
     ]
 )
 
-@register_preset("nominal")
+@register_preset("nominal", measured="actual")
 def nominal_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
     """The nominal parameters ``u_0`` of Wang et al. (2018), Table 1."""
     return PSSMechanism(_NOMINAL_UPPER, _NOMINAL_LOWER, v0)

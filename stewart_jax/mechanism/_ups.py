@@ -53,7 +53,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import valid_poses
+from .._checks import field_array, field_numbers, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
@@ -441,24 +441,11 @@ def _length(v: list[Array]) -> Array:
 
 
 def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x  # traced (jit/vmap): validated where the concrete value was built
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[a.ndim - len(shape):] != shape:
-        raise ValueError(f"UPSMechanism.{name} must have shape {shape} (mm), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
-    return jnp.asarray(a)
+    return field_array(x, "UPSMechanism", name, shape, unit="mm")
 
 
 def _finite(x: Any, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"UPSMechanism.{name} must be numbers, got {x!r}") from None
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
-    return a
+    return field_numbers(x, "UPSMechanism", name)
 
 
 def _stroke_limits(x: Any) -> tuple[tuple[float, float], ...] | None:
@@ -491,16 +478,7 @@ def _angle_limit(x: Any) -> tuple[float, ...] | None:
 
 
 def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
-    if x is None:
-        return None
-    a = _finite(x, "travel")
-    if a.shape != (5,) or not np.all(a > 0):
-        raise ValueError(
-            f"UPSMechanism.travel must be five positive numbers (x, y, z in mm, tilt, rz in rad), got {a.tolist()}"
-        )
-    if a[3] > 0.5 or a[4] > 0.5:
-        raise ValueError(f"UPSMechanism.travel angles are radians; {a[3:].tolist()} looks like degrees")
-    return tuple(float(v) for v in a)  # type: ignore[return-value]
+    return None if x is None else field_travel(x, "UPSMechanism", ("x", "y", "z"), ("tilt", "rz"))  # type: ignore[return-value]
 
 
 # ---- geometry-file checks -----------------------------------------------------------------------
