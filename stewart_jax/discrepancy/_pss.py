@@ -112,7 +112,7 @@ class PSSModel(AbstractMechanismModel):
         """``∂q/∂P`` of the base model at each pose.
 
         NOTE: the forward-mode derivative of :func:`pss_strokes`, not the analytic
-        :func:`~stewart_jax.kinematic_jacobian`: equal to rounding, but the whitened fits are
+        closed-form ``ik_and_jacobian`` of the mechanism: equal to rounding, but the whitened fits are
         ill-conditioned enough (cond ~1e5) that switching moves reported statistics by up to
         ~1e-6 relative, so the published numbers keep this Jacobian (see
         ``tests/test_discrepancy.py`` for the agreement of the two)."""
