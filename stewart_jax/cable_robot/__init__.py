@@ -21,7 +21,10 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
 - :mod:`._modes` — beyond the paper: stiffness, mass matrix, natural frequencies and mode
   shapes of the cabin on its cables; the cables' own string frequencies.
 - :mod:`._lumped` — beyond the paper: lumped-mass cables (MoorDyn's discretisation), statics
-  of nodes and cabin together, and every mode of the whole system.
+  of nodes and cabin together, every mode of the whole system (dense) or those below a
+  cut-off (banded).
+- :mod:`._lumped_blocks` — the lumped cables' sparsity: the Hessian by blocks (a star of six
+  block-tridiagonal chains), chain-by-chain solves, the banded standard form.
 - :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
   (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
 """
@@ -54,9 +57,11 @@ from ._coupled import (
     simulate as simulate,
 )
 from ._lumped import (
+    LumpedLowModes as LumpedLowModes,
     LumpedModes as LumpedModes,
     LumpedStatics as LumpedStatics,
     ModalSummary as ModalSummary,
+    lumped_low_modes as lumped_low_modes,
     lumped_modes as lumped_modes,
     lumped_statics as lumped_statics,
     modal_summary as modal_summary,
