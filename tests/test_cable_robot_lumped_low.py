@@ -9,7 +9,7 @@ import pytest
 import scipy.linalg
 
 import stewart_jax  # noqa: F401
-from stewart_jax.cable_robot import _lumped, _lumped_blocks as blocks, paper_fast_params, static_equilibrium_jit
+from stewart_jax.cable_robot import _lumped, _lumped_blocks as blocks, paper_fast_params
 from stewart_jax.cable_robot._lumped import (
     catenary_nodes,
     lumped_low_modes,
@@ -17,6 +17,7 @@ from stewart_jax.cable_robot._lumped import (
     lumped_potential,
     modal_summary,
 )
+from stewart_jax.cable_robot._statics import static_equilibrium_jit
 from stewart_jax.cable_robot._workspace import assembly_centre_of_mass
 
 PARAMS = paper_fast_params()
@@ -141,6 +142,34 @@ def test_a_failed_check_falls_back_on_the_dense_route(monkeypatch):
     assert low.method == "dense"
     keep = np.asarray(dense.frequencies_hz) < low.cutoff_hz
     np.testing.assert_array_equal(np.asarray(low.frequencies_hz), np.asarray(dense.frequencies_hz)[keep])
+    assert float(low.residual) < 1e-8
+
+
+def test_a_poor_vector_is_recomputed_with_a_moved_shift(monkeypatch):
+    # one inverse-iteration vector left off its eigenvector (as a near-singular chain pivot
+    # leaves it): its residual fails the 1e-9 check, it is recomputed with the shift moved by
+    # 1e-6 λ, and the banded route still gives the dense route's modes
+    pos = POSITIONS["off_centre"]
+    st = static_equilibrium_jit(PARAMS, pos, R)
+    dense = lumped_modes(PARAMS, pos, N, static=st)
+    K, M = np.asarray(dense.stiffness), np.asarray(dense.mass)
+    real, calls = _lumped._inverse_iteration_jit, []
+
+    def spoiled(prep, lam, tau, chunk, label):
+        V, MV, KV = (np.array(a) for a in real(prep, lam, tau, chunk, label))
+        calls.append(int(chunk))
+        if int(chunk) == 0:
+            e = 1e-9 * np.linalg.norm(V[:, 5]) * np.random.default_rng(1).normal(size=V.shape[0])
+            V[:, 5] += e
+            MV[:, 5] += M @ e
+            KV[:, 5] += K @ e
+        return V, MV, KV
+
+    monkeypatch.setattr(_lumped, "_inverse_iteration_jit", spoiled)
+    low = lumped_low_modes(PARAMS, pos, N, 1.5, static=st)
+    assert 1000 in calls and low.method == "banded"
+    k = low.frequencies_hz.shape[0]
+    np.testing.assert_allclose(np.asarray(low.frequencies_hz), np.asarray(dense.frequencies_hz)[:k], rtol=1e-9)
     assert float(low.residual) < 1e-8
 
 

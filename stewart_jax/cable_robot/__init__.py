@@ -34,8 +34,8 @@ the coupled simulation of §6 (compiled once with ``jax.jit(run_scenario,
 static_argnames=("duration", "dt", "start", "method"))``); :func:`cabin_statics`,
 :func:`workspace_map` and :func:`focal_surface_point`; :func:`solve_attitude` and
 :func:`smallest_feasible_tilt`; :func:`cabin_modes`, :func:`modes_map` and
-:func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`modal_summary`
-and :func:`simulate_lumped`. The modules' building blocks (the catenary's Jacobian and starts,
+:func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`lumped_low_modes`,
+:func:`modal_summary` and :func:`simulate_lumped`. The modules' building blocks (the catenary's Jacobian and starts,
 the platform's Newton–Euler dynamics, the integrator behind :func:`run_scenario`) are private.
 """
 

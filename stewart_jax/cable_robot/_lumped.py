@@ -390,7 +390,7 @@ def lumped_modes(
 def lumped_stiffness_schur(modes: LumpedModes) -> Float[Array, "6 6"]:
     """The cabin's static stiffness with every cable node free to settle, ``K_cc − K_cn K_nn⁻¹
     K_nc`` (N/m, N, N·m/rad): the stiffness the quasi-static cables give
-    (:func:`~stewart_jax.cable_robot.cabin_stiffness`) as ``N → ∞``."""
+    (``cabin_modes(...).stiffness``, :func:`~stewart_jax.cable_robot.cabin_modes`) as ``N → ∞``."""
     K = modes.stiffness
     return K[:6, :6] - K[:6, 6:] @ jnp.linalg.solve(K[6:, 6:], K[6:, :6])
 
