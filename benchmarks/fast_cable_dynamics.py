@@ -354,10 +354,13 @@ def markdown(conv, four, fmap, sp, t2=None, n=None):
                   f"{tm['lumped_compile_plus_first_s']:.1f} s, then {tm['lumped_wall_s']:.1f} s wall "
                   f"({tm['lumped_wall_s_per_position'] * 1e3:.1f} ms per position; {tm['lumped_cpu_s']:.1f} s CPU); "
                   f"the attitudes (smallest-tilt searches) and catenary statics before it "
-                  f"{tm['attitudes_and_catenary_statics_s']:.1f} s wall "
-                  f"({tm.get('attitudes_and_catenary_statics_cpu_s', float('nan')):.1f} s CPU); the whole map "
-                  f"{tm['whole_map_s']:.1f} s wall ({tm.get('whole_map_cpu_s', float('nan')):.1f} s CPU), load "
-                  "average " + " → ".join(f"{v:.1f}" for v in tm.get("load_average_1min_start_end", [])) + "."]
+                  f"{tm['attitudes_and_catenary_statics_s']:.1f} s wall" + (
+                      f" ({tm['attitudes_and_catenary_statics_cpu_s']:.1f} s CPU)"
+                      if "attitudes_and_catenary_statics_cpu_s" in tm else "")
+                  + f"; the whole map {tm['whole_map_s']:.1f} s wall" + (
+                      f" ({tm['whole_map_cpu_s']:.1f} s CPU), load average "
+                      + " → ".join(f"{v:.1f}" for v in tm["load_average_1min_start_end"])
+                      if "whole_map_cpu_s" in tm else "") + "."]
     if sp:
         lines += ["", "## Speed: statics + modes at one position (30, 0, 142.8) m, after compilation", "",
                   "Banded: `lumped_low_modes` (every mode below 1.5 Hz, its shares); dense: `lumped_modes` "
