@@ -556,7 +556,6 @@ def _rayleigh_ritz(V, MV, KV, mass_cc, node_mass, tau, coupling=1e-10, window=16
     nn = (V.shape[0] - 6) // 18
     minv_r = np.concatenate([np.linalg.solve(mass_cc, r[:6]), r[6:] / np.repeat(node_mass, 3 * nn)[:, None]])
     res = np.sqrt(np.abs(np.sum(r * minv_r, axis=0))) / np.maximum(np.abs(theta), tau)
-    # far-apart vectors left uncoupled must be M-orthogonal: check a sample through the mass
     sign = np.sign(shapes[np.argmax(np.abs(shapes), axis=0), np.arange(m)])
     return theta, shapes * np.where(sign == 0, 1.0, sign), res
 
@@ -587,8 +586,9 @@ def lumped_low_modes(
     host: not traceable) on ``L⁻¹ K L⁻ᵀ`` ordered by level (half-bandwidth 14); the shapes of
     the modes below the cut-off (and a few above, as a guard) from inverse iteration with the
     chain solve (jitted, 32 shifts per call) and a Rayleigh–Ritz step. Every mode's residual
-    is checked; where one is not at rounding level (``residual > 1e-6``) the dense route
-    (:func:`lumped_modes`) is used instead and ``method`` says so. The compliances are a
+    is checked: a vector above 1e-9 is recomputed with its shift moved by 1e-6 λ; where one is
+    still not at rounding level (``residual > 1e-6``) the dense route (:func:`lumped_modes`) is
+    used instead and ``method`` says so. The compliances are a
     direct solve, so ``compliance_resolved`` tells how much of each lies below the cut-off.
 
     With ``resolve_dominant`` (the default), where a cabin coordinate's dominant mode could lie
