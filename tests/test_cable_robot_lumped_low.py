@@ -41,9 +41,10 @@ def test_blocks_are_the_hessian_and_solve_and_band_agree_with_dense_algebra():
     X = catenary_nodes(PARAMS, pos, R, st, n) + 0.01
     q = jnp.array([1e-3, -2e-3, 5e-4, 1e-4, -2e-4, 3e-4])
     m, com = assembly_centre_of_mass(PARAMS, pos, R)
-    b = blocks.potential_blocks(PARAMS, pos, R, st.s0, q, X, m, R.T @ (com - pos))
+    # both jitted: op by op they take 40 s under the suite's -O0
+    b = jax.jit(blocks.potential_blocks)(PARAMS, pos, R, st.s0, q, X, m, R.T @ (com - pos))
     y = jnp.concatenate([q, X.reshape(-1)])
-    H = jax.hessian(lambda yy: lumped_potential(PARAMS, pos, R, st.s0, yy[:6], yy[6:].reshape(X.shape)))(y)
+    H = jax.jit(jax.hessian(lambda yy: lumped_potential(PARAMS, pos, R, st.s0, yy[:6], yy[6:].reshape(X.shape))))(y)
     H = np.asarray(0.5 * (H + H.T))
     K = np.asarray(blocks.dense(b))
     np.testing.assert_allclose(K, H, rtol=0, atol=1e-12 * np.max(np.abs(H)))
