@@ -68,9 +68,11 @@ def field_array(
 
 
 def field_numpy(
-    x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False, unit: str | None = None
+    x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False, unit: str | None = None,
+    item: str = "leg",
 ) -> np.ndarray:
-    """:func:`field_array`'s checks on a concrete value, returned as NumPy.
+    """:func:`field_array`'s checks on a concrete value, returned as NumPy; a failing entry is
+    named as the ``item`` it is, counted from 1.
 
     NOTE: checks stay in NumPy: under ``jit`` even ``jnp.asarray`` of a constant is staged out as
     a tracer, which a NumPy conversion would then reject."""
@@ -80,8 +82,8 @@ def field_numpy(
         raise ValueError(f"{owner}.{name} must have shape {shape}{in_unit}, got {a.shape}")
     if positive and np.any(a <= 0):
         bad = np.flatnonzero(a.reshape(-1) <= 0)
-        raise ValueError(f"{owner}.{name} must be positive{in_unit}, got {a.reshape(-1)[bad].tolist()} at "
-                         f"{bad.tolist()} (all: {a.tolist()})")
+        raise ValueError(f"{owner}.{name} must be positive{in_unit}: {item}(s) {(bad + 1).tolist()} have "
+                         f"{a.reshape(-1)[bad].tolist()} (all: {a.tolist()})")
     return a
 
 
