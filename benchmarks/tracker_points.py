@@ -44,7 +44,6 @@ from stewart_jax.calibration import (  # noqa: E402
     perturbed,
     plan_poses,
     reachable_travel,
-    simulate_points,
 )
 from stewart_jax.calibration._identifiability import predicted_control_error_std  # noqa: E402
 from stewart_jax.calibration._points import (  # noqa: E402
@@ -53,6 +52,7 @@ from stewart_jax.calibration._points import (  # noqa: E402
     default_registration,
     default_targets,
     rigid_poses,
+    simulate_points,
     start_values,
 )
 from stewart_jax.mechanism import preset  # noqa: E402

@@ -182,7 +182,7 @@ def test_leg_parameters_match_the_parameter_jacobians_sparsity(name):
     legs = m.leg_parameters
     if legs is None:  # truly optional: legs that share parameters get the dense least-squares solve
         pytest.skip(f"{m.family}'s legs share parameters")
-    poses = sj.random_poses(jax.random.key(1), 3, half=sj.calibration.reachable_travel(m))
+    poses = sj.calibration.random_poses(jax.random.key(1), 3, half=sj.calibration.reachable_travel(m))
     jac = np.asarray(jax.jit(jax.jacfwd(lambda u: m.with_params(u).solve_inverse_kinematics(poses).strokes))(m.params))
     assert sorted(i for leg in legs for i in leg) == list(range(m.n_params))
     for i, leg in enumerate(legs):
@@ -201,7 +201,7 @@ def test_leg_parameter_jacobian_is_the_autodiff_jacobians_leg_blocks(name):
         pytest.skip(f"{m.family}'s legs share parameters")
     if type(m).leg_parameter_jacobian is AbstractMechanism.leg_parameter_jacobian:
         pytest.skip(f"{m.family} cuts its blocks from the default Jacobian (checked by central differences)")
-    poses = sj.random_poses(jax.random.key(2), 5, half=sj.calibration.reachable_travel(m))
+    poses = sj.calibration.random_poses(jax.random.key(2), 5, half=sj.calibration.reachable_travel(m))
     blocks = np.asarray(jax.jit(type(m).leg_parameter_jacobian)(m, poses))
     ad = np.asarray(jax.jit(AbstractMechanism.parameter_jacobian)(m, poses)).reshape(5, 6, -1)
     assert blocks.shape == (6, 5, len(m.leg_parameters[0]))
@@ -218,7 +218,7 @@ def simulated(nominal, actual, seed: int, n: int):
     @jax.jit
     def one(key):
         k1, k2 = jax.random.split(key)
-        poses = sj.random_poses(k1, 8, half=half)
+        poses = sj.calibration.random_poses(k1, 8, half=half)
         strokes = actual.solve_inverse_kinematics(poses).strokes + 1e-4 * jax.random.normal(k2, (8, 6))
         return sj.calibration_problem(CalibrationData(strokes, poses), nominal, 5.0)
 

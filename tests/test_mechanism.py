@@ -140,7 +140,7 @@ def test_file_without_family_key_is_the_paper_6pss(tmp_path):
     del d["mechanism"]
     (tmp_path / "old.json").write_text(json.dumps(d))
     back = sj.load_mechanism(tmp_path / "old.json")
-    assert isinstance(back, sj.PSSMechanism)
+    assert isinstance(back, sj.mechanism.PSSMechanism)
     np.testing.assert_array_equal(back.params, g.params)
 
 

@@ -107,8 +107,9 @@ def test_sizes_and_labels_follow_each_parameters_unit(rotary):
     true = sj.calibration.perturbed(rotary, jax.random.key(0), 0.5)
     d = np.asarray(true.params - rotary.params)
     assert 0.25 < d[:48].std() < 0.75 and 2.5e-4 < d[48:].std() < 7.5e-4  # 48 and 6 draws: wide margins
-    lo, hi = sj.calibration.feasible_box(rotary, 2.0, 3.0)
-    np.testing.assert_allclose(np.asarray(hi - rotary.params), [2.0] * 48 + [3e-3] * 6, rtol=1e-12)
+    nine = sj.calibration.make_calibration_data(np.zeros((9, 6)), np.zeros((9, 6)))  # 54 residuals, 54 parameters
+    box = sj.calibration_problem(nine, rotary, 2.0, 3.0)
+    np.testing.assert_allclose(np.asarray(box.upper - rotary.params), [2.0] * 48 + [3e-3] * 6, rtol=1e-12)
     np.testing.assert_array_equal(preset("nominal").with_param_set("54").natural_scales(2.0)[-12:], 2.0)  # mrad
 
 
@@ -165,19 +166,19 @@ def rows(rotary):
     rng = np.random.default_rng(0)
     poses = travel_poses(rotary, 8, 1)
     cond = dc.random_conditions(rng, 8)
-    return sj.make_calibration_data(np.zeros((8, 6)), poses, cond.directions, cond.temperature, cond.time)
+    return sj.calibration.make_calibration_data(np.zeros((8, 6)), poses, cond.directions, cond.temperature, cond.time)
 
 
 def test_model_wraps_the_mechanism_and_its_effects_match_independent_physics(rotary, rows):
     model = dc.model_for(rotary)
-    assert isinstance(model, dc.RUSModel) and model.report_unit == "µrad"
+    assert model.name == "6-rus" and model.report_unit == "µrad"
     np.testing.assert_array_equal(model.predict(model.base_initial, (), (), rows),
                                   rotary.solve_inverse_kinematics(rows.poses).strokes)
     poses, zero = np.asarray(rows.poses), np.asarray(rotary.crank_zero)
     alpha = eisele_crank_angles(rotary, poses)
     k = np.array([3e-4, -2e-4, 1e-4, 5e-4, -4e-4, 2e-4])
     thermal = np.array([12e-6, 23e-6, 1e-6, 12e-6, 17e-6, 5e-6])
-    hot = np.asarray(rows.temperature)[:, None] - dc.T_REF_C
+    hot = np.asarray(rows.temperature)[:, None] - 20.0  # the effects' reference, 20 °C
     expected = {
         "gear_ratio": (alpha - zero) / (1 + k),
         "crank_offset": alpha - zero + k,
@@ -237,7 +238,7 @@ def test_cli_diagnoses_a_rotary_geometry_file_and_keeps_its_units(rotary, tmp_pa
     assert res["named_effect"] == "gear_ratio" and res["settings"]["family"] == "6-RUS"
     fm = dc.load_fitted_model(model_json)
     saved = json.loads(model_json.read_text())
-    assert "sigma_reading_urad" in saved and "sigma_stroke_um" not in saved and isinstance(fm.model, dc.RUSModel)
+    assert "sigma_reading_urad" in saved and "sigma_stroke_um" not in saved and fm.model.name == "6-rus"
     data = sj.read_csv(csv, reading_unit="rad")  # crank angles in degrees in the file, exactly back
     np.testing.assert_array_equal(data.strokes, hidden.data.strokes)
     np.testing.assert_allclose(fm.predict(data), report.fitted.predict(data), rtol=0, atol=1e-12)

@@ -107,7 +107,7 @@ def test_agrees_with_dense_scan(travel):
         k = int(np.argmin(ok))
         assert k > 0 and not bool(r.hit_max[i])
         lo, hi = t[k - 1], t[k]
-        assert lo - 1e-9 * e <= float(r.extent[i]) <= hi + 1e-9 * e, (M.MAX_TRAVEL_RAYS[i], lo, hi, r.extent[i])
+        assert lo - 1e-9 * e <= float(r.extent[i]) <= hi + 1e-9 * e, (i, lo, hi, r.extent[i])
 
 
 class _Gap(M.AbstractMechanism):

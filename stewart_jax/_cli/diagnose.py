@@ -53,7 +53,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 def _diagnose_points(args: argparse.Namespace, effects) -> int:
     """``diagnose POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``: the workflow on
-    the tracker's points, with its noise model (:class:`~stewart_jax.discrepancy.PointsModel`)."""
+    the tracker's points, with its noise model (:func:`~stewart_jax.discrepancy.points_model`)."""
     from ..calibration._points import read_points_csv, read_targets
     from ..discrepancy import diagnose, point_rows, points_model
     from ..mechanism._registry import load_mechanism
@@ -152,7 +152,9 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    from ..discrepancy import PSS_MODEL_NAME, effect_names, model_families
+    from ..discrepancy import effect_names
+    from ..discrepancy._families import model_families
+    from ..discrepancy._pss import PSS_MODEL_NAME
     from ._points import tracker_sigma_arg
 
     names = effect_names(PSS_MODEL_NAME)

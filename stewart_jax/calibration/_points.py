@@ -480,7 +480,7 @@ def _kabsch_batch(body: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, n
 
 
 def _kabsch(body: np.ndarray, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`~stewart_jax.calibration.rigid_fit` in NumPy (one small SVD per pose, no dispatch)."""
+    """:func:`~stewart_jax.calibration._simulation.rigid_fit` in NumPy (one small SVD per pose, no dispatch)."""
     cb, cm = body.mean(0), measured.mean(0)
     u, _, vt = np.linalg.svd((body - cb).T @ (measured - cm))
     d = np.sign(np.linalg.det(vt.T @ u.T))
@@ -654,7 +654,7 @@ def implied_point_pose_errors(
 ) -> Float[np.ndarray, "k 6"]:
     """At each pose where a rigid fit exists (≥ 3 targets), ``mechanism``'s pose for the readings
     minus the rigid-fit pose in B under the registration ``rotation, translation`` (µm, ″): what
-    :func:`~stewart_jax.calibration.implied_pose_errors` is for pose data."""
+    :func:`~stewart_jax.calibration._assessment.implied_pose_errors` is for pose data."""
     from .._units import error_in_report_units
 
     rigid, fitted = rigid_poses(data, targets, np.asarray(rotation), np.asarray(translation),

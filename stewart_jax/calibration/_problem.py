@@ -160,7 +160,7 @@ def population_objective(params: Float[Array, " n"], problem: CalibrationProblem
     ``jax.vmap`` over ``params`` is :meth:`CalibrationProblem.population_cost`.
 
     NOTE: population solvers are written per nest and evaluate a population with ``jax.vmap``
-    (:func:`stewart_jax.optimise.evaluate`), which keeps them generic; this function's batching
+    (``evaluate`` in ``stewart_jax/optimise/_driver.py``), which keeps them generic; this function's batching
     rule (``jax.custom_batching.custom_vmap``) swaps the vmapped per-nest cost for the family's
     population layout whenever only ``params`` is batched (``problem`` batched too, e.g. one
     problem per trial on the same axis, falls back to ``vmap`` of the cost). Derivatives, in

@@ -162,7 +162,8 @@ def perturbed(
 
 def tracker_for(mechanism: AbstractMechanism, sigma_um: float = 3.0) -> LaserTracker:
     """Three target balls on the moving platform, 120° apart on the circle of its joints and at
-    their mean height in frame A (for the paper's mechanism: :func:`default_tracker`'s layout)."""
+    their mean height in frame A (for the paper's mechanism: 100 mm from A's z axis at 90°, 210°
+    and 330°, 90 mm above A's origin)."""
     layout = mechanism.tracker_layout()
     if layout is not None:
         return default_tracker(*layout, sigma_um=sigma_um)
