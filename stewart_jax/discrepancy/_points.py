@@ -24,8 +24,8 @@ base frame is a gauge of the geometry: base joints ``G·b_i`` with the same plat
 lengths and readings reach the pose ``G∘P``, so every platform point is predicted by the
 registration ``R·G⁻¹`` exactly as before. An error of the references' fit is therefore absorbed
 by the base joints, exactly, and neither biases the test nor costs a degree of freedom (measured
-on Rubin camera sessions: the detection p-value with the references' noise and without it agree
-to 1e-9). For the 6-PSS the sliders' direction (B's z) breaks the gauge; the part not absorbed is
+on two Rubin camera sessions: the detection p-values with the references' noise and without it
+agree to 1e-8). For the 6-PSS the sliders' direction (B's z) breaks the gauge; the part not absorbed is
 the stroke times the registration's tilt error (1 mm × 5 µrad = 5 nm for the paper's travel), far
 below a tracker's micrometres. For the 6-RUS the crank planes (vertical, at fixed azimuths) break
 it too: a rotation error ``ω`` turns each crank end by ``a·ω``, of which the base joint absorbs
