@@ -24,7 +24,6 @@ from stewart_jax.calibration import PointData
 RANGE_UM, ACROSS_UM_PER_M = 5.0, 2.5
 N_POSES = 30
 CANDIDATES = ("strut_scale", "backlash")
-SEEDS = range(3)
 SCALE_PPM = (2000.0, 4000.0)
 """The hidden strut scale errors (ppm): a tracker's micrometres see the simulator's 300–600 ppm
 (1–2 µm on the camera's strokes of ±4 mm RMS) only with hundreds of poses."""
@@ -113,34 +112,25 @@ def test_no_measured_pose_effect_is_offered(camera, setup):
 
 @pytest.fixture(scope="module")
 def reports(camera, setup):
-    """Diagnoses of the null sessions and of sessions hiding ``strut_scale`` (one per seed)."""
+    """Diagnoses of two null sessions (the command line's test diagnoses one hiding
+    ``strut_scale``); one data set each, so all three share one compiled program."""
     targets = setup[0]
     out = {}
-    for effect in (None, "strut_scale"):
-        for seed in SEEDS:
-            data, _ = points_session(camera, setup, None, 100 + seed, scale_ppm=SCALE_PPM if effect else None)
-            rows, rot, t = dc.point_rows(data, targets, camera, range_um=RANGE_UM,
-                                         across_um_per_m=ACROSS_UM_PER_M)
-            out[effect, seed] = dc.diagnose(rows, dc.points_model(camera, rot, t), effects=CANDIDATES, seed=seed)
+    for seed in (0, 1):
+        data, _ = points_session(camera, setup, None, 100 + seed)
+        rows, rot, t = dc.point_rows(data, targets, camera, range_um=RANGE_UM, across_um_per_m=ACROSS_UM_PER_M)
+        out[seed] = dc.diagnose(rows, dc.points_model(camera, rot, t), effects=CANDIDATES, seed=seed)
     return out
 
 
-def test_a_hidden_strut_scale_is_named(reports):
-    # strut scale errors of 2000–4000 ppm on the camera's strokes: named in 8 of 8 seeds measured
-    # (gap 9–12 µm before, 7–7.7 µm after, noise floor ~7 µm); 2 of 3 allows one miss.
-    named = [r.named_effect for (e, _), r in reports.items() if e == "strut_scale"]
-    assert sum(n == "strut_scale" for n in named) >= len(SEEDS) - 1, named
-    assert all(n in (None, "strut_scale") for n in named), named
-
-
 def test_no_alarm_without_a_hidden_effect(reports):
-    # a name must never be given where nothing is hidden: 0 of 8 null sessions measured. The
-    # detection fired on 2 of those 8 (p = 0.012, 0.031) against a nominal false-alarm level of
-    # 0.05 (P(≥ 2 of 8) = 5.7 % for an exact test): possibly anti-conservative on points, not yet
-    # understood. Of these 3 seeds one detects (seed 1); 1 of 3 is allowed.
-    null = [r for (e, _), r in reports.items() if e is None]
-    assert sum(r.detected for r in null) <= 1, [r.detect_p_value for r in null]
+    # a name must never be given where nothing is hidden: 0 of 68 null sessions measured were named.
+    # The detection alone fires at its nominal rate (3 of 60 null sessions at α = 5 %,
+    # benchmarks/discrepancy_points.py --null-seeds 60); seed 1 is one such session (p = 0.012):
+    # detected, and still not named. Both detecting has probability ≈ 0.3 % at that rate.
+    null = list(reports.values())
     assert all(r.named_effect is None for r in null), [r.named_effect for r in null]
+    assert sum(r.detected for r in null) <= 1, [r.detect_p_value for r in null]
 
 
 def test_cli_diagnoses_a_points_file(tmp_path, camera, setup, capsys):
@@ -159,5 +149,8 @@ def test_cli_diagnoses_a_points_file(tmp_path, camera, setup, capsys):
     assert main(args + ["--json", str(tmp_path / "d.json")]) == 0
     out = json.loads((tmp_path / "d.json").read_text())
     assert out["data"] == "points" and out["n_points"] == len(data.points) and out["n_poses"] == N_POSES
-    assert out["named_effect"] == "strut_scale" and out["settings"]["tracker_sigma_range_um"] == RANGE_UM
+    assert out["settings"]["tracker_sigma_range_um"] == RANGE_UM
+    # a hidden strut scale error of 2000–4000 ppm on the camera's strokes: named in 8 of 8 seeds
+    # measured (detection p ≤ 7e-6; gap 9–12 µm before, 7–7.7 µm after, noise floor ~7 µm)
+    assert out["detected"] and out["named_effect"] == "strut_scale", (out["detection"], out["named_effect"])
     assert out["gap_after"] < out["gap_before"]

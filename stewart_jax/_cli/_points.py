@@ -62,8 +62,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from ._common import load_nominal
 
     targets = read_targets(args.targets)
-    data = read_points_csv(args.file, targets)
     nominal = load_nominal(args)
+    data = read_points_csv(args.file, targets, reading_unit=nominal.reading_unit)
     t0 = time.perf_counter()
     cal = calibrate_points(data, targets, nominal, range_um=range_um, across_um_per_m=across,
                            **({"max_steps": args.max_steps} if args.max_steps is not None else {}))
@@ -169,7 +169,7 @@ def run_simulate(args: argparse.Namespace) -> int:
                           visible=args.visible)
     if args.default_targets:
         write_targets(args.targets, targets)
-    write_points_csv(args.out, sim.data, targets)
+    write_points_csv(args.out, sim.data, targets, reading_unit=nominal.reading_unit)
     if args.out_true:
         save_mechanism(true, args.out_true)
     print(f"wrote {len(sim.data.points)} target points of {sim.data.n_poses} poses and "

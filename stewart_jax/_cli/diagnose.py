@@ -67,8 +67,8 @@ def _diagnose_points(args: argparse.Namespace, effects) -> int:
                          "geometry with calibrate --out-geometry")
     range_um, across = tracker_sigma(args)
     targets = read_targets(args.targets)
-    data = read_points_csv(args.file, targets)
     geometry = load_mechanism(args.geometry)
+    data = read_points_csv(args.file, targets, reading_unit=geometry.reading_unit)
     rows, rotation, translation = point_rows(data, targets, geometry, range_um=range_um, across_um_per_m=across)
     model = points_model(geometry, rotation, translation)
     report = diagnose(rows, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,

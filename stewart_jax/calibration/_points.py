@@ -47,18 +47,19 @@ from jax.scipy.special import gammainc, gammaincc
 from jaxtyping import Array, Float, Int, PRNGKeyArray
 
 from .._math import rotation_matrix
-from .._units import UM
+from .._units import READING_UNITS, UM, check_unit
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._assessment import FIT_P_VALUE, IDENTIFIABLE_TOL, RANK_RTOL, CalibrationAssessment
-from ._csv import DIRECTION_COLUMNS, STROKE_COLUMNS, csv_rows
+from ._csv import DIRECTION_COLUMNS, STROKE_COLUMNS, csv_rows, format_degrees, parse_degrees
 
 POINT_COLUMNS = ("pose", "target", *STROKE_COLUMNS, "x", "y", "z")
 """The columns a points file must have (``pose`` = ``ref`` on a base reference's row)."""
 REFERENCE_POSE = "ref"
 DEFAULT_TRACKER_SIGMA = (5.0, 2.5)
 """σ along the line of sight (µm) and across it (µm per metre of distance), the default noise."""
-_READING_ATOL_MM = 1e-9
+_READING_ATOL = 1e-9
+"""Rows of one pose whose readings differ by more than this (mm, or rad for crank angles) disagree."""
 
 
 class TrackerTargets(NamedTuple):
@@ -153,8 +154,10 @@ def write_targets(path: str | os.PathLike[str], targets: TrackerTargets) -> None
     write_text_atomic(path, json_text(d))
 
 
-def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets) -> PointData:
+def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, reading_unit: str = "mm") -> PointData:
     """Read a points file (columns ``pose,target,q1..q6,x,y,z``; others ignored) against ``targets``.
+    ``reading_unit``: the mechanism's (``"rad"``: ``q1``…``q6`` are crank angles in degrees, as in
+    the pose CSV, returned in rad).
 
     Everything is checked before any work, each error on one line naming the file's line: a
     missing column, a non-numeric cell, a target name missing from the targets file, a repeated
@@ -165,6 +168,7 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets) -> Po
     The pose CSV's optional per-pose columns ``dir1..dir6`` (±1, all six), ``temperature`` (°C) and
     ``time`` (s) are read when present; rows of one pose repeat them, as they repeat the readings.
     """
+    angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
     rows, header = csv_rows(path)
     missing = [c for c in POINT_COLUMNS if c not in header]
     if missing:
@@ -209,17 +213,19 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets) -> Po
         if target not in platform:
             raise ValueError(f"{path}, line {line}: platform target {target!r} is not in the targets file's "
                              f"platform_targets {list(targets.platform_names)}")
-        q = np.array([_number(path, line, c, r[col[c]]) for c in STROKE_COLUMNS])
+        q = np.array([_number(path, line, c, r[col[c]], degrees=angular) for c in STROKE_COLUMNS])
         cond = np.array([_number(path, line, c, r[col[c]]) for c in conditions])
         if dirs and not np.all(np.isin(cond[:6], (-1.0, 1.0))):
             raise ValueError(f"{path}, line {line}: dir1..dir6 must hold +1 or -1")
         if pose in pose_rows:
             first, q0, cond0 = pose_rows[pose]
-            if np.max(np.abs(q - q0)) > _READING_ATOL_MM:
-                worst = STROKE_COLUMNS[int(np.argmax(np.abs(q - q0)))]
+            if np.max(np.abs(q - q0)) > _READING_ATOL:
+                j = int(np.argmax(np.abs(q - q0)))
+                unit = "°" if angular else " mm"
+                a, b = (np.degrees([q[j], q0[j]]) if angular else (q[j], q0[j]))
                 raise ValueError(f"{path}, line {line}: pose {pose!r} has readings that disagree with its row on "
-                                 f"line {first} ({worst}: {q[STROKE_COLUMNS.index(worst)]!r} vs "
-                                 f"{q0[STROKE_COLUMNS.index(worst)]!r}); rows of one pose repeat its readings")
+                                 f"line {first} ({STROKE_COLUMNS[j]}: {float(a)!r}{unit} vs {float(b)!r}{unit}); rows "
+                                 "of one pose repeat its readings")
             if np.any(cond != cond0):
                 worst = conditions[int(np.argmax(cond != cond0))]
                 raise ValueError(f"{path}, line {line}: pose {pose!r} has a {worst!r} that disagrees with its row on "
@@ -254,9 +260,16 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets) -> Po
                      time=cond[:, conditions.index("time")] if "time" in conditions else None)
 
 
-def write_points_csv(path: str | os.PathLike[str], data: PointData, targets: TrackerTargets) -> None:
-    """Write ``data`` as a points file (base references first; atomic; full precision)."""
+def write_points_csv(
+    path: str | os.PathLike[str], data: PointData, targets: TrackerTargets, *, reading_unit: str = "mm"
+) -> None:
+    """Write ``data`` as a points file (base references first; atomic; full precision).
+    ``reading_unit``: the mechanism's (``"rad"``: the readings are crank angles, written in degrees
+    that :func:`read_points_csv` turns back into exactly the same radians)."""
     from .._files import write_text_atomic
+
+    angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
+    reading = format_degrees if angular else (lambda x: repr(float(x)))
 
     extra_names, extra = [], []
     if data.directions is not None:
@@ -273,15 +286,16 @@ def write_points_csv(path: str | os.PathLike[str], data: PointData, targets: Tra
                               + [""] * len(extra_names)))
     for j, k, p in zip(data.pose_index, data.target_index, data.points, strict=True):
         lines.append(",".join([data.pose_names[j], targets.platform_names[k]]
-                              + [repr(float(x)) for x in data.strokes[j]] + [repr(float(x)) for x in p]
+                              + [reading(x) for x in data.strokes[j]] + [repr(float(x)) for x in p]
                               + [repr(float(x)) for x in per_pose[j]]))
     write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-def _number(path, line, column, cell) -> float:
+def _number(path, line, column, cell, degrees: bool = False) -> float:
+    """A cell's number (``degrees``: a degree cell, returned in rad by :func:`parse_degrees`)."""
     try:
-        x = float(cell)
-    except ValueError:
+        x = parse_degrees(cell) if degrees else float(cell)
+    except (ValueError, ArithmeticError):
         raise ValueError(f"{path}, line {line}, column {column!r}: {cell!r} is not a number") from None
     if not np.isfinite(x):
         raise ValueError(f"{path}, line {line}, column {column!r}: {cell!r} is not finite")
