@@ -24,6 +24,11 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   of nodes and cabin together, and every mode of the whole system.
 - :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
   (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
+- :mod:`._cabin_modal` — beyond the paper: the cabin's free vibration as a differentiable modal
+  superposition, quasi-static or with the cables' inertia (Craig–Bampton reduction of the
+  lumped cables), a changed EA, cabin mass or damping per mode group.
+- :mod:`._free_decay` — beyond the paper: free-decay records of the cabin (quasi-static or
+  lumped cables, time integration) sampled with tracker noise; the record CSV.
 """
 
 from ._attitude import (
@@ -36,6 +41,17 @@ from ._attitude import (
     solve_attitude as solve_attitude,
     tilt_angle as tilt_angle,
     towards_centre_attitude as towards_centre_attitude,
+)
+from ._cabin_modal import (
+    DAMPING_GROUPS as DAMPING_GROUPS,
+    CabinModalModel as CabinModalModel,
+    CabinModalModes as CabinModalModes,
+    CabinVariation as CabinVariation,
+    cabin_modal_model as cabin_modal_model,
+    cabin_modal_modes as cabin_modal_modes,
+    damping_group_shares as damping_group_shares,
+    free_response as free_response,
+    scaled_params as scaled_params,
 )
 from ._catenary import (
     CableParams as CableParams,
@@ -52,6 +68,16 @@ from ._coupled import (
     matrix_to_quat as matrix_to_quat,
     quat_to_matrix as quat_to_matrix,
     simulate as simulate,
+)
+from ._free_decay import (
+    RECORD_COLUMNS as RECORD_COLUMNS,
+    CabinRecord as CabinRecord,
+    FreeDecay as FreeDecay,
+    check_record as check_record,
+    lumped_free_decay as lumped_free_decay,
+    quasi_static_free_decay as quasi_static_free_decay,
+    sample_record as sample_record,
+    write_record as write_record,
 )
 from ._lumped import (
     LumpedModes as LumpedModes,

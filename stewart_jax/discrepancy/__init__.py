@@ -13,7 +13,10 @@ The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cab
 parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
 :func:`fast_model`, :func:`fast_responses`, :func:`simulate_fast_measurement`, effects under
 ``"fast"``) is loaded on first access, so that importing this package does not load the
-cable-robot simulator; ``plot_residuals`` (matplotlib) likewise.
+cable-robot simulator; so is the FAST cabin-record model (a record of the cabin's free
+vibration against the paper's quasi-static cables: :class:`CabinRecordModel`,
+:func:`cabin_record_model`, :func:`read_cabin_record`, :func:`record_data`,
+:func:`fitted_modes`, effects under ``"fast-cabin"``); ``plot_residuals`` (matplotlib) likewise.
 """
 
 from typing import Any
@@ -94,11 +97,19 @@ _CABLE_ROBOT = ("FastData", "FastModel", "FastResponses", "FastState", "fast_mod
                 "simulate_fast_measurement")
 
 
+_CABIN_RECORD = ("CabinRecordData", "CabinRecordModel", "CabinRecordState", "cabin_record_model", "fitted_modes",
+                 "read_cabin_record", "record_data")
+
+
 def __getattr__(name: str) -> Any:
     if name in _CABLE_ROBOT:
         from . import _cable_robot
 
         return getattr(_cable_robot, name)
+    if name in _CABIN_RECORD:
+        from . import _cabin_record
+
+        return getattr(_cabin_record, name)
     if name == "plot_residuals":  # a figure: matplotlib is loaded on first use only
         from ..plotting import plot_residuals
 
@@ -107,4 +118,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_CABLE_ROBOT) | {"plot_residuals"})
+    return sorted(set(globals()) | set(_CABLE_ROBOT) | set(_CABIN_RECORD) | {"plot_residuals"})

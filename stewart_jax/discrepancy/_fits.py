@@ -98,7 +98,71 @@ def _base_fits(model, effects, trains):
     return jnp.concatenate([res.params, jnp.zeros((b, n_eff))], axis=1), res.status == RESULTS.successful
 
 
-def _fit_gn(model, effects, mask, train, w_tr, test, z0):
+PROFILE_STEPS = 3
+"""Gauss–Newton steps on the base parameters alone at each starting point of a model's
+:meth:`~stewart_jax.discrepancy.AbstractDiscrepancyModel.effect_grid`."""
+LINE_SEARCH = 0.5 ** np.arange(6)
+"""Step lengths tried, longest first, by the augmented fits of a model with an effect grid."""
+
+
+def _grid_profiles(model, effects, train, w_tr):
+    """For a model with an effect grid: every row's profile (the base parameters fitted from the
+    model's ``base_initial``, not from the base fit, which a far-off model may have sent
+    anywhere, with the effects held at the row), its χ², and which effects the row moves.
+    ``None`` for a model without a grid."""
+    grid = model.effect_grid(effects)
+    if grid is None:
+        return None
+    grid = np.asarray(grid, dtype=np.float64)
+    slices = effect_slices(model, effects)
+    nb = model.base_initial.shape[0]
+    if grid.ndim != 2 or grid.shape[1] != sum(e.n_params for e in effects):
+        raise ValueError(f"{type(model).__name__}.effect_grid must return rows of "
+                         f"{sum(e.n_params for e in effects)} values, got {grid.shape}")
+    moves = np.stack([np.any(grid[:, sl - nb] != 0, axis=1) for sl in slices], axis=1).astype(np.float64)
+    args = (model, effects, jnp.ones(len(effects)), train, w_tr)
+
+    # NOTE: the base parameters alone are differentiated here (the effects' parameters are
+    # constants of the profile), so a model whose effects change an eigen-decomposition pays
+    # for it once per row, not once per unknown; and the rows are profiled once per data set,
+    # whatever the masks fitted from them.
+    def profile(z_eff):
+        def res(zb):
+            return _white_residual(jnp.concatenate([zb, z_eff]), args)
+
+        def step(zb, _):
+            r = res(zb)
+            a = jax.jacfwd(res)(zb)
+            d = jnp.linalg.norm(a, axis=0)
+            d = jnp.where(d > 0, d, 1.0)
+            a = a / d
+            normal = a.T @ a + GN_RIDGE * jnp.eye(nb)
+            return zb - jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(normal), a.T @ r) / d, None
+
+        zb, _ = jax.lax.scan(step, jnp.zeros(nb), None, length=PROFILE_STEPS)
+        chi2 = jnp.sum(res(zb) ** 2)
+        return jnp.concatenate([zb, z_eff]), jnp.where(jnp.isfinite(chi2), chi2, jnp.inf)
+
+    zs, chi2 = jax.lax.map(profile, jnp.asarray(grid))
+    return zs, chi2, jnp.asarray(moves)
+
+
+def _start(model, effects, mask, train, w_tr, z0, profiles):
+    """The augmented fit's start: ``z0 * keep`` (the base fit, effects at 0), or, with grid
+    ``profiles``, the profiled row of least χ² among those moving only the effects in ``mask``,
+    if it beats the base fit's χ²."""
+    keep = _keep(model, effects, mask)
+    if profiles is None:
+        return z0 * keep
+    zs, chi2, moves = profiles
+    eligible = jnp.all(moves <= mask[None, :], axis=1)
+    chi2 = jnp.where(eligible, chi2, jnp.inf)
+    best = jnp.argmin(chi2)
+    chi2_0 = jnp.sum(_white_residual(z0 * keep, (model, effects, mask, train, w_tr)) ** 2)
+    return jnp.where(chi2[best] < chi2_0, zs[best] * keep, z0 * keep)
+
+
+def _fit_gn(model, effects, mask, train, w_tr, test, z0, profiles=None):
     """Gauss–Newton refinement of base + the effects in ``mask`` from ``z0`` (the base fit).
 
     NOTE: started at the base optimum with the effect parameters at 0, every augmented problem
@@ -110,10 +174,13 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0):
     so each step is a full-rank solve even when two effects are collinear. The normal equations
     (Cholesky, ~1 ms) replace QR (~50 ms on CPU for these sizes): they square the condition
     number (~1e5 → 1e10 here), which costs accuracy in the step, not in the fixed point — the
-    next step corrects it.
+    next step corrects it. A model whose effects are far from linear (a frequency change over a
+    long record) names starting points (:func:`_start`) and its own number of steps, each then
+    shortened until it lowers χ² (:data:`LINE_SEARCH`).
     """
     keep = _keep(model, effects, mask)
     args = (model, effects, mask, train, w_tr)
+    search = model.effect_grid(effects) is not None
 
     def step(carry, _):
         z, _ = carry
@@ -124,9 +191,15 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0):
         a = jac / d
         normal = a.T @ a + jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
         dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(normal), a.T @ r) / d * keep
-        return (z + dz, jnp.sum(r**2)), None
+        chi2 = jnp.sum(r**2)
+        if search:  # backtracking: the longest step that lowers χ², else none
+            trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
+            ok = jnp.isfinite(trial) & (trial < chi2)
+            dz = dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0)
+        return (z + dz, chi2), None
 
-    (z, chi2_prev), _ = jax.lax.scan(step, (z0 * keep, jnp.inf), None, length=GN_STEPS)
+    z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
+    (z, chi2_prev), _ = jax.lax.scan(step, (z_start, jnp.inf), None, length=model.fit_steps or GN_STEPS)
     chi2 = jnp.sum(_white_residual(z, args) ** 2)
     converged = jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
     raw_te = _raw_residual(z, model, effects, mask, test)
@@ -146,7 +219,8 @@ def _prepare(model, effects, train, test, z_base):
 
 
 def _fit_masks(model, effects, masks, train, w_tr, test, z0):
-    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0), masks)
+    profiles = _grid_profiles(model, effects, train, w_tr)
+    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0, profiles), masks)
 
 
 def _map_datasets(fn, in_axes):
