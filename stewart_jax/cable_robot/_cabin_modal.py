@@ -50,7 +50,7 @@ every mass and inertia is ``(1 + κ_m)`` times the paper's changes the statics: 
 hold the cabin where it is, so the unstretched lengths and tensions are solved again
 (:func:`~stewart_jax.cable_robot.static_equilibrium`), and with them ``K``. ``K(κ)`` and
 ``K(κ_m)`` are tabulated at the Chebyshev points of ``ea_range``/``mass_range`` and interpolated
-by a Chebyshev series (degree 8: 1e-9 relative inside the ranges, checked in the tests; continued
+by a Chebyshev series (degree 8: within 1e-6 of |K| inside the ranges, checked in the tests; continued
 linearly outside them, a fit's excursion, not a model); the mass
 matrix scales exactly, ``M (1 + κ_m)``. The cables' own inertia (μ's part) is kept at the paper's
 EA and masses.

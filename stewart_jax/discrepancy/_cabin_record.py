@@ -69,7 +69,7 @@ DAMPING_START = 0.005
 10(12):450, 2024)."""
 MASS_SHARE_RANGE = (0.0, 1.5)
 """Range of the ``cable_inertia`` starting grid (the share of the cables' mass that moves)."""
-PHASE_STEP_RAD = 1.0
+PHASE_STEP_RAD = 2.0
 """Largest change of any mode's phase at the record's end between neighbouring grid points."""
 MAX_GRID = 400
 """Most starting points per effect (a longer record is refused by the grid, see

@@ -98,7 +98,7 @@ def _base_fits(model, effects, trains):
     return jnp.concatenate([res.params, jnp.zeros((b, n_eff))], axis=1), res.status == RESULTS.successful
 
 
-PROFILE_STEPS = 3
+PROFILE_STEPS = 2
 """Gauss–Newton steps on the base parameters alone at each starting point of a model's
 :meth:`~stewart_jax.discrepancy.AbstractDiscrepancyModel.effect_grid`."""
 LINE_SEARCH = 0.5 ** np.arange(6)
@@ -218,8 +218,7 @@ def _prepare(model, effects, train, test, z_base):
     return w_tr, w_te, jac_tr, jac_te
 
 
-def _fit_masks(model, effects, masks, train, w_tr, test, z0):
-    profiles = _grid_profiles(model, effects, train, w_tr)
+def _fit_masks(model, effects, masks, train, w_tr, test, z0, profiles=None):
     return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0, profiles), masks)
 
 
@@ -243,10 +242,12 @@ def _map_datasets(fn, in_axes):
 
 
 _prepare_many = eqx.filter_jit(eqx.filter_vmap(_prepare, in_axes=(None, None, 0, 0, 0)))
-fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0)))
-"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b]) -> (z, χ², converged,
+fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0, 0)))
+"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b], profiles) -> (z, χ², converged,
 held-out raw residuals)``, each with leading axes ``(b, q)``: base + the effects of each mask
-fitted to each of ``b`` data sets (stacked pytrees)."""
+fitted to each of ``b`` data sets (stacked pytrees); ``profiles`` (``None`` for a model without an
+effect grid) are the starting points of :func:`_start`, per data set."""
+_profiles_many = eqx.filter_jit(_map_datasets(_grid_profiles, (None, None, 0, 0)))
 
 
 class BatchFits(NamedTuple):
@@ -289,7 +290,8 @@ def fit_candidates(
     w_tr, w_te, jac_tr, jac_te = _prepare_many(model, effects, trains, tests, z_base)
     b = z_base.shape[0]
     masks = jnp.broadcast_to(jnp.concatenate([jnp.zeros((1, k)), jnp.eye(k)]), (b, k + 1, k))
-    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base)
+    profiles = _profiles_many(model, effects, trains, w_tr) if model.effect_grid(effects) is not None else None
+    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base, profiles)
     return BatchFits(
         *jax.device_get((z, chi2, ok[:, None] & last, raw_te, w_te, w_tr, jac_tr, jac_te, ok))
     )
@@ -303,12 +305,23 @@ def fit_pairs(
     tests: Any,
     fits: BatchFits,
 ) -> Float[np.ndarray, "b q"]:
-    """Training χ² of base + the effects of each mask, started from the base fits.
+    """Training χ² of base + the effects of each mask, started from the base fits (for a model
+    with an effect grid: from the best single-effect fit of an effect in the mask).
 
     NOTE: ``masks`` padded to the shape of :func:`fit_candidates`' masks (data sets ×
-    ``(K + 1)``) reuse its compiled kernel."""
+    ``(K + 1)``) reuse its compiled kernel; so do the starts, padded to the grid's rows."""
+    grid = model.effect_grid(effects)
+    profiles = None
+    if grid is not None:
+        b, k = fits.chi2.shape[0], len(effects)
+        pad = grid.shape[0] - k
+        zs = np.concatenate([fits.z[:, 1:], np.zeros((b, pad, fits.z.shape[2]))], axis=1)
+        chi2_1 = np.where(np.isfinite(fits.chi2[:, 1:]), fits.chi2[:, 1:], np.inf)
+        chi2_1 = np.concatenate([chi2_1, np.full((b, pad), np.inf)], axis=1)
+        moves = np.concatenate([np.eye(k), np.ones((pad, k))])[None].repeat(b, axis=0)
+        profiles = (jnp.asarray(zs), jnp.asarray(chi2_1), jnp.asarray(moves))
     _, chi2, _, _ = jax.device_get(
-        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0])
+        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0], profiles)
     )
     return chi2
 
