@@ -89,6 +89,7 @@ def main() -> None:
                                  "noise_floor": rep.noise_floor, "detect_p": rep.detect_p_value})
                 target = case if case != "none" else None
                 cell = {"case": case, "duration_s": duration, "sigma_mm": sigma, "runs": runs,
+                        "grid_points": {k: len(v) for k, v in model.grids},
                         "named_right": sum(r["named"] == target for r in runs),
                         "named_wrong": sum(r["named"] not in (target, None) for r in runs),
                         "detected": sum(r["detected"] for r in runs), "seconds": time.perf_counter() - t1}
