@@ -258,8 +258,13 @@ def test_the_command_line_writes_and_diagnoses_a_record(tmp_path, capsys):
                  "--dt", str(DT_S), "--out", str(rec), "--json", str(js), "--seed", "0"]) == 0
     fd = json.loads(js.read_text())
     assert fd["status"] == "ok" and fd["rows"] == int(T_S * RATE_HZ) + 1 and fd["cables"]["segments"] == N
-    assert main(["diagnose", str(rec), "--geometry", "fast", "--segments", str(N), "--json", str(out)]) == 0
+    plots, model = tmp_path / "plots", tmp_path / "model.json"
+    assert main(["diagnose", str(rec), "--geometry", "fast", "--segments", str(N), "--json", str(out),
+                 "--plot", str(plots), "--out-model", str(model)]) == 0
     d = json.loads(out.read_text())
+    assert {p.name for p in plots.iterdir()} == {"residuals_time_s.png", "record_fit.png"}
+    m = json.loads(model.read_text())
+    assert m["effects"][0]["effect"] == "cable_inertia" and abs(m["effects"][0]["params"][0] - 1.0) < 0.02
     assert d["model"] == "fast-cabin" and d["named_effect"] == "cable_inertia" and d["explained"]
     assert d["gap_after"] < 1.2 * d["noise_floor"] < d["gap_before"]
     assert d["modes"]["after"]["frequencies_hz"][0] < d["modes"]["before"]["frequencies_hz"][0]
