@@ -8,8 +8,11 @@ Records are simulated by the time integrators (lumped-mass cables with N segment
 σ per position coordinate (rotation σ = 0.01° per mm of it) is drawn per seed. Each cell runs
 ``stewart-jax diagnose --geometry fast``'s workflow (the model with the same N), 30 % held out.
 
-    python benchmarks/fast_cabin_record.py                 # the sweep (~1 h on 2 loaded cores)
+    python benchmarks/fast_cabin_record.py --durations 10,20,40 --noise-mm 1,3,10 --seeds 4
     python benchmarks/fast_cabin_record.py --quick         # 2 durations × 2 noise levels × 2 seeds
+    python benchmarks/fast_cabin_record.py --durations 8,10,20 --noise-mm 20,40 --tag limits
+    python benchmarks/fast_cabin_record.py --record-segments 8 --durations 20,40 --noise-mm 1,3 \
+        --cases cable_inertia                              # records finer than the model
 
 Results: ``benchmarks/results/fast_cabin_record{,_quick}.{json,md}``, rewritten after every cell
 (an interrupted run keeps what it has).
@@ -48,7 +51,12 @@ RATE_HZ = 10.0
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--segments", type=int, default=4)
+    ap.add_argument("--segments", type=int, default=4, help="segments per cable of the model")
+    ap.add_argument("--record-segments", type=int, default=None,
+                    help="segments per cable of the lumped records (default: the model's); finer records "
+                         "stand in for the continuous cables the model discretises")
+    ap.add_argument("--cases", default="cable_inertia,none")
+    ap.add_argument("--tag", default="", help="appended to the results' name")
     ap.add_argument("--durations", default="10,20,40,80", help="record lengths, s")
     ap.add_argument("--noise-mm", default="1,3,10", help="tracker noise σ per position coordinate, mm")
     ap.add_argument("--seeds", type=int, default=5)
@@ -57,15 +65,22 @@ def main() -> None:
     noises = [1.0, 10.0] if args.quick else [float(v) for v in args.noise_mm.split(",")]
     seeds = 2 if args.quick else args.seeds
     name = "fast_cabin_record_quick" if args.quick else "fast_cabin_record"
+    n_rec = args.segments if args.record_segments is None else args.record_segments
+    if n_rec != args.segments:
+        name += f"_records_n{n_rec}"
+    if args.tag:
+        name += f"_{args.tag}"
     params = paper_fast_params()
     n = args.segments
     t0 = time.perf_counter()
     modal = cabin_modal_model(params, POS, n)
     t_max = max(durations)
-    decays = {
-        "cable_inertia": lumped_free_decay(params, POS, n, t_max, displacement=Q0, damping_ratio=ZETA),
-        "none": quasi_static_free_decay(params, POS, t_max, 5e-3, displacement=Q0, damping_ratio=ZETA),
+    make = {
+        "cable_inertia": lambda: lumped_free_decay(params, POS, n_rec, t_max, 5e-3, displacement=Q0,
+                                                   damping_ratio=ZETA),
+        "none": lambda: quasi_static_free_decay(params, POS, t_max, 5e-3, displacement=Q0, damping_ratio=ZETA),
     }
+    decays = {c: make[c]() for c in args.cases.split(",")}
     setup_s = time.perf_counter() - t0
     cells = []
     for duration in durations:
@@ -75,7 +90,7 @@ def main() -> None:
                 runs = []
                 t1 = time.perf_counter()
                 for s in range(seeds):
-                    part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])
+                    part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])  # the record's first T s
                     r = sample_record(part, RATE_HZ, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s)
                     data = record_data(r.time, r.position_mm, r.rotation_deg)
                     model = cabin_record_model(data, POS, modal=modal, sigma_um=1e3 * sigma,
@@ -97,15 +112,15 @@ def main() -> None:
                 print(f"{case:14s} T={duration:5.0f} s σ={sigma:5.1f} mm: right {cell['named_right']}/{seeds}, "
                       f"wrong {cell['named_wrong']}, detected {cell['detected']} ({cell['seconds']:.0f} s)",
                       flush=True)
-                _write(name, cells, args, n, seeds, setup_s)
+                _write(name, cells, n, n_rec, seeds, setup_s)
 
 
-def _write(name, cells, args, n, seeds, setup_s) -> None:
+def _write(name, cells, n, n_rec, seeds, setup_s) -> None:
     lines = [
         "# The FAST cabin record: how long a record, how little noise",
         "",
-        f"Lumped-mass records (N = {n}) for `cable_inertia`, quasi-static records for `none`; released from "
-        "20, 10, 5 mm and 0.01°, 0.01°, 0.02°, ζ = 0.005, at (0, 0, 140) m, 10 Hz; the model with the same N. "
+        f"Lumped-mass records (N = {n_rec}) for `cable_inertia`, quasi-static records for `none`; released from "
+        f"20, 10, 5 mm and 0.01°, 0.01°, 0.02°, ζ = 0.005, at (0, 0, 140) m, 10 Hz; the model with N = {n}. "
         f"{seeds} noise seeds per cell; rotation noise 0.01° per mm of position noise. *right*: `cable_inertia` "
         "named on the lumped record / nothing named on the quasi-static one; *wrong*: another name; μ: the fitted "
         "share of the cables' mass that moves (1 is the truth); gaps: held-out RMS / noise floor (median).",
@@ -122,8 +137,9 @@ def _write(name, cells, args, n, seeds, setup_s) -> None:
                      f"{c['named_wrong']} | {c['detected']} | {mu:.3f} | {gb:.2f} | {ga:.2f} |")
     lines.append("")
     lines.append(f"Setup (modal model, both simulations, compile): {setup_s:.0f} s.")
-    write_results(name, {"segments": n, "seeds": seeds, "rate_hz": RATE_HZ, "damping_ratio": ZETA,
-                         "initial_displacement_m_rad": Q0.tolist(), "cells": cells}, "\n".join(lines))
+    write_results(name, {"segments": n, "record_segments": n_rec, "seeds": seeds, "rate_hz": RATE_HZ,
+                         "damping_ratio": ZETA, "initial_displacement_m_rad": Q0.tolist(), "cells": cells},
+                  "\n".join(lines))
 
 
 if __name__ == "__main__":

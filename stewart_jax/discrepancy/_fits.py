@@ -314,7 +314,7 @@ def fit_pairs(
     profiles = None
     if grid is not None:
         b, k = fits.chi2.shape[0], len(effects)
-        pad = grid.shape[0] - k
+        pad = max(grid.shape[0] - k, 0)
         zs = np.concatenate([fits.z[:, 1:], np.zeros((b, pad, fits.z.shape[2]))], axis=1)
         chi2_1 = np.where(np.isfinite(fits.chi2[:, 1:]), fits.chi2[:, 1:], np.inf)
         chi2_1 = np.concatenate([chi2_1, np.full((b, pad), np.inf)], axis=1)
