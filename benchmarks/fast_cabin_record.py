@@ -40,7 +40,7 @@ from stewart_jax.cable_robot import (  # noqa: E402
     quasi_static_free_decay,
     sample_record,
 )
-from stewart_jax.discrepancy import cabin_record_model, diagnose, record_data  # noqa: E402
+from stewart_jax.discrepancy import cabin_record_model, diagnose, read_cabin_record  # noqa: E402
 
 POS = (0.0, 0.0, 140.0)
 Q0 = np.array([0.02, 0.01, 0.005, *np.deg2rad([0.01, 0.01, 0.02])])
@@ -92,7 +92,7 @@ def main() -> None:
                 for s in range(seeds):
                     part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])  # the record's first T s
                     r = sample_record(part, RATE_HZ, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s)
-                    data = record_data(r.time, r.position_mm, r.rotation_deg)
+                    data = read_cabin_record(r)
                     model = cabin_record_model(data, POS, modal=modal, sigma_um=1e3 * sigma,
                                                sigma_arcsec=36.0 * sigma)
                     rep = diagnose(data, model, seed=s)

@@ -1,5 +1,5 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV, with the discrepancy model of the geometry's family: 6-PSS or 6-UPS; or, with
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS; or, with
 ``--geometry fast``, on a record of the FAST cabin's free vibration) and
 ``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
@@ -20,6 +20,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..discrepancy import diagnose, model_for
     from ..mechanism._registry import load_mechanism
     from ._common import check_outputs
+    from ._points import is_points_file
 
     check_outputs(args, json="--json", out_model="--out-model")
     if args.geometry == "fast":
@@ -29,10 +30,14 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
             raise ValueError(f"{option} belongs to a FAST cabin record (--geometry fast)")
     args.sigma_um = 0.1 if args.sigma_um is None else args.sigma_um
     args.sigma_arcsec = 0.1 if args.sigma_arcsec is None else args.sigma_arcsec
-    data = read_csv(args.file)
-    geometry = load_mechanism(args.geometry)
-    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    if is_points_file(args.file):
+        return _diagnose_points(args, effects)
+    if args.targets is not None or args.tracker_sigma_um is not None:
+        raise ValueError("--targets and --tracker-sigma-um are for a points file (one with a 'target' column)")
+    geometry = load_mechanism(args.geometry)
+    data = read_csv(args.file, reading_unit=geometry.reading_unit)
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, _reading_sigma(args, geometry))
     report = diagnose(
         data,
         model,
@@ -50,11 +55,57 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "sigma_um": args.sigma_um,
         "sigma_arcsec": args.sigma_arcsec,
         "sigma_stroke_um": args.sigma_stroke_um,
+        "sigma_reading_urad": args.sigma_reading_urad,
         "holdout_fraction": args.holdout_fraction,
         "seed": args.seed,
         "alpha": args.alpha,
         "estimate_noise": args.estimate_noise,
     }
+    return _finish(args, report, out)
+
+
+def _diagnose_points(args: argparse.Namespace, effects) -> int:
+    """``diagnose POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``: the workflow on
+    the tracker's points, with its noise model (:func:`~stewart_jax.discrepancy.points_model`)."""
+    from ..calibration._points import read_points_csv, read_targets
+    from ..discrepancy import diagnose, point_rows, points_model
+    from ..mechanism._registry import load_mechanism
+    from ._points import tracker_sigma
+
+    if args.targets is None:
+        raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
+                         "coordinates with --targets T.json")
+    if args.out_model:
+        raise ValueError("--out-model writes a model of pose data; for a points file, write the calibrated "
+                         "geometry with calibrate --out-geometry")
+    range_um, across = tracker_sigma(args)
+    targets = read_targets(args.targets)
+    data = read_points_csv(args.file, targets)
+    geometry = load_mechanism(args.geometry)
+    rows, rotation, translation = point_rows(data, targets, geometry, range_um=range_um, across_um_per_m=across)
+    model = points_model(geometry, rotation, translation)
+    report = diagnose(rows, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,
+                      alpha=args.alpha, estimate_noise=args.estimate_noise)
+    out = report.to_dict()
+    out["file"] = args.file
+    out["data"] = "points"
+    out["n_poses"] = data.n_poses
+    out["n_points"] = int(len(data.points))
+    out["settings"] = {
+        "geometry": args.geometry,
+        "family": geometry.family,
+        "targets": args.targets,
+        "tracker_sigma_range_um": range_um,
+        "tracker_sigma_across_um_per_m": across,
+        "holdout_fraction": args.holdout_fraction,
+        "seed": args.seed,
+        "alpha": args.alpha,
+        "estimate_noise": args.estimate_noise,
+    }
+    return _finish(args, report, out)
+
+
+def _finish(args: argparse.Namespace, report, out: dict) -> int:
     if args.plot:
         from ._common import file_backend
 
@@ -96,8 +147,12 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
 
     position = (0.0, 0.0, 140.0) if args.position is None else args.position
     segments = DEFAULT_SEGMENTS if args.segments is None else args.segments
-    if args.sigma_stroke_um:
-        raise ValueError("--sigma-stroke-um is an actuator reading's noise; a cabin record has none")
+    if args.sigma_stroke_um or args.sigma_reading_urad:
+        raise ValueError("--sigma-stroke-um and --sigma-reading-urad are an actuator reading's noise; a cabin record "
+                         "has none")
+    if args.targets is not None or args.tracker_sigma_um is not None:
+        raise ValueError("--targets and --tracker-sigma-um are for a points file; a cabin record's noise is "
+                         "--sigma-um and --sigma-arcsec")
     sigma_um = FAST_SIGMA_UM if args.sigma_um is None else args.sigma_um
     sigma_arcsec = FAST_SIGMA_ARCSEC if args.sigma_arcsec is None else args.sigma_arcsec
     from ..cable_robot._lumped import check_segments
@@ -188,6 +243,19 @@ def _position(text: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
+def _reading_sigma(args: argparse.Namespace, geometry) -> float:
+    """The reading noise in the readings' report unit: ``--sigma-stroke-um`` (linear readings) or
+    ``--sigma-reading-urad`` (a rotary family's crank angles), the other refused."""
+    if geometry.reading_unit == "mm":
+        if args.sigma_reading_urad:
+            raise ValueError(f"--sigma-reading-urad is for crank angles; a {geometry.family} reads mm "
+                             "(--sigma-stroke-um)")
+        return args.sigma_stroke_um
+    if args.sigma_stroke_um:
+        raise ValueError(f"a {geometry.family} reads crank angles: give their noise as --sigma-reading-urad")
+    return args.sigma_reading_urad
+
+
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
     from ..discrepancy import simulate_hidden_effect, write_hidden_csv
     from ._common import check_outputs
@@ -209,17 +277,25 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    from ..discrepancy import PSS_MODEL_NAME, effect_names, model_families
+    from ..discrepancy import effect_names
+    from ..discrepancy._families import model_families
+    from ..discrepancy._pss import PSS_MODEL_NAME
+    from ._points import tracker_sigma_arg
 
     names = effect_names(PSS_MODEL_NAME)
     per_family = "; ".join(f"{fam}: {', '.join(effect_names(m))}" for fam, m in model_families().items())
     p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
-    p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional); with "
-                   "--geometry fast a record of the FAST cabin (time,x,y,z,rx,ry,rz)")
+    p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional), or a "
+                   "laser tracker's points file (pose, target, q1..q6, x, y, z) with --targets; with --geometry fast a "
+                   "record of the FAST cabin (time,x,y,z,rx,ry,rz)")
     p.add_argument("--geometry", default="nominal",
                    help="starting geometry: preset or JSON/TOML file; its family picks the model and the candidates; "
-                   "'fast': the file is a free-vibration record of the FAST cabin (candidates: cable_inertia, "
-                   "cable_stiffness, cabin_mass, damping)")
+                   "'fast': the file is a free-vibration record of the FAST cabin (time,x,y,z,rx,ry,rz; candidates: "
+                   "cable_inertia, cable_stiffness, cabin_mass, damping)")
+    p.add_argument("--targets", help="a points file's targets (JSON, mm): its rows are the tracker's points")
+    p.add_argument("--tracker-sigma-um", type=tracker_sigma_arg, metavar="RANGE,ACROSS_PER_M",
+                   help="a points file's tracker noise: σ along the line of sight (µm) and across it (µm per metre "
+                   "of distance); default 5,2.5")
     p.add_argument("--position", type=_position, default=None, metavar="X,Y,Z",
                    help="--geometry fast: the cabin's position G t_C in metres (default 0,0,140)")
     p.add_argument("--segments", type=int, default=None, metavar="N",
@@ -229,6 +305,8 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--sigma-arcsec", type=float, default=None,
                    help=f"pose noise σ, angles (″; default 0.1, or {FAST_SIGMA_ARCSEC:g} for --geometry fast)")
     p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="actuator reading noise σ (µm)")
+    p.add_argument("--sigma-reading-urad", type=float, default=0.0,
+                   help="a rotary family's crank-reading noise σ (µrad)")
     p.add_argument("--estimate-noise", action="store_true",
                    help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")

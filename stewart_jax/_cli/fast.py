@@ -160,15 +160,10 @@ def run_fast(args: argparse.Namespace) -> int:
 
     import stewart_jax  # noqa: F401  (float64)
 
-    from ..cable_robot import (
-        PAPER_TABLE2,
-        WORKSPACE_STATUS,
-        attitude_summary,
-        cabin_modes_jit,
-        cable_string_modes,
-        paper_fast_params,
-        run_scenario_jit,
-    )
+    from ..cable_robot import PAPER_TABLE2, WORKSPACE_STATUS, cable_string_modes, paper_fast_params
+    from ..cable_robot._attitude import attitude_summary
+    from ..cable_robot._modes import cabin_modes_jit
+    from ..cable_robot._scenario import run_scenario_jit
     from ._common import check_outputs
 
     check_outputs(args, json="--json", plot="--plot", out="--out")
@@ -402,7 +397,9 @@ def _free_decay_problem(args) -> str | None:
 
 def _run_free_decay(args, params, sol, out: dict) -> int:
     """``--free-decay``: simulate the release of the displaced cabin and write the record."""
-    from ..cable_robot import lumped_free_decay, quasi_static_free_decay, sample_record, scaled_params, write_record
+    from ..cable_robot import lumped_free_decay, quasi_static_free_decay, sample_record
+    from ..cable_robot._cabin_modal import scaled_params
+    from ..cable_robot._free_decay import write_record
 
     zeta, change = _damping(args.damping)
     q0 = np.concatenate([np.asarray(args.initial_mm) * 1e-3, np.deg2rad(args.initial_deg)])

@@ -127,8 +127,8 @@ def quasi_static_free_decay(
     """Free decay of the cabin on quasi-static elastic catenaries (see the module docstring)
     from ``displacement`` (m, rad) and ``velocity`` (m/s, rad/s) at ``t = 0``, for ``duration``
     seconds in steps of ``dt``; mode m damped at ``damping_ratio + Σ_g damping_change[g]
-    s_g(m)`` (groups :data:`~stewart_jax.cable_robot.DAMPING_GROUPS`). ``params`` may carry a
-    changed EA or cabin mass (:func:`~stewart_jax.cable_robot.scaled_params`): the statics are
+    s_g(m)`` (groups :data:`~stewart_jax.cable_robot._cabin_modal.DAMPING_GROUPS`). ``params`` may carry a
+    changed EA or cabin mass (:func:`~stewart_jax.cable_robot._cabin_modal.scaled_params`): the statics are
     solved for them at ``position``."""
     _check_common(position, duration, dt, displacement, velocity, damping_ratio)
     dz = np.asarray(damping_change, dtype=np.float64)

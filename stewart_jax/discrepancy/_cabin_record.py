@@ -55,7 +55,7 @@ from ..cable_robot._cabin_modal import (
     cabin_modal_modes,
     free_response,
 )
-from ..cable_robot._free_decay import RECORD_COLUMNS, check_record
+from ..cable_robot._free_decay import RECORD_COLUMNS, CabinRecord, check_record
 from ._registry import AbstractDiscrepancyModel, Effect, register_effect
 
 MODEL_NAME = "fast-cabin"
@@ -102,7 +102,7 @@ class CabinRecordData(NamedTuple):
 
 def record_data(time, position_mm, rotation_deg, source: str = "record") -> CabinRecordData:
     """:class:`CabinRecordData` from a record's columns (s; mm; degrees), checked
-    (:func:`~stewart_jax.cable_robot.check_record`): times relative to the first sample,
+    (:func:`~stewart_jax.cable_robot._free_decay.check_record`): times relative to the first sample,
     rotations in mrad."""
     t = np.asarray(time, dtype=np.float64)
     pose = np.concatenate([np.asarray(position_mm, dtype=np.float64),
@@ -111,19 +111,22 @@ def record_data(time, position_mm, rotation_deg, source: str = "record") -> Cabi
     return CabinRecordData(jnp.asarray(t - t[0]), jnp.asarray(pose))
 
 
-def read_cabin_record(path: str | os.PathLike[str]) -> CabinRecordData:
-    """Read a cabin record CSV (columns ``time,x,y,z,rx,ry,rz``: s; mm; degrees; other columns
-    ignored), with a clear error for a missing column, a cell that is not a number, a time that
-    does not increase."""
+def read_cabin_record(source: str | os.PathLike[str] | CabinRecord) -> CabinRecordData:
+    """Read a cabin record: a CSV (columns ``time,x,y,z,rx,ry,rz``: s; mm; degrees; other
+    columns ignored) or a :class:`~stewart_jax.cable_robot._free_decay.CabinRecord` in memory
+    (:func:`~stewart_jax.cable_robot.sample_record`'s), with a clear error for a missing
+    column, a cell that is not a number, a time that does not increase, an uneven sampling."""
+    if isinstance(source, CabinRecord):
+        return record_data(source.time, source.position_mm, source.rotation_deg)
     from ..calibration._csv import read_csv_columns
 
-    cols = read_csv_columns(path)
+    cols = read_csv_columns(source)
     missing = [c for c in RECORD_COLUMNS if c not in cols]
     if missing:
-        raise ValueError(f"{path}: a cabin record needs the columns {list(RECORD_COLUMNS)}; missing {missing}")
+        raise ValueError(f"{source}: a cabin record needs the columns {list(RECORD_COLUMNS)}; missing {missing}")
     pos = np.stack([cols[c] for c in ("x", "y", "z")], axis=1)
     rot = np.stack([cols[c] for c in ("rx", "ry", "rz")], axis=1)
-    return record_data(cols["time"], pos, rot, source=os.fspath(path))
+    return record_data(cols["time"], pos, rot, source=os.fspath(source))
 
 
 class CabinRecordState(NamedTuple):
@@ -139,7 +142,7 @@ class CabinRecordModel(AbstractDiscrepancyModel):
     """The cabin's free vibration on the paper's quasi-static cables (base) and the effects that
     change it (see the module docstring).
 
-    **Fields:** ``modal`` (:class:`~stewart_jax.cable_robot.CabinModalModel` at the record's
+    **Fields:** ``modal`` (:class:`~stewart_jax.cable_robot._cabin_modal.CabinModalModel` at the record's
     position), ``sigma_mm`` and ``sigma_mrad`` (the tracker's noise per position coordinate and
     rotation component), ``grids`` (static: effect name → starting values of its parameter, library
     units), ``duration_s`` (static, the record's span the grids were made for) and ``notes``
@@ -372,7 +375,7 @@ def fitted_modes(model: CabinRecordModel, effects: tuple[Effect, ...] = (), thet
                  min_share: float = 0.01) -> dict:
     """The modes of the (augmented) model below ``cutoff_hz`` that move the cabin (its kinetic
     energy share ≥ ``min_share``): ``frequencies_hz``, ``cabin_energy_share``, and per mode the
-    group of :data:`~stewart_jax.cable_robot.DAMPING_GROUPS` holding most of its cabin energy."""
+    group of :data:`~stewart_jax.cable_robot._cabin_modal.DAMPING_GROUPS` holding most of its cabin energy."""
     var = model.variation(effects, thetas)
     m = cabin_modal_modes(model.modal, var)
     f = np.asarray(m.frequencies_hz)

@@ -22,8 +22,8 @@ _WHICH = ("before", "after", "both")
 def _factor_label(factor: str) -> str:
     if factor == "direction":
         return "approach direction (±1)"
-    return (factor.replace("_um", " (µm)").replace("_arcsec", " (″)").replace("_C", " (°C)")
-            .replace("_s", " (s)"))
+    return (factor.replace("_urad", " (µrad)").replace("_um", " (µm)").replace("_arcsec", " (″)")
+            .replace("_C", " (°C)").replace("_s", " (s)"))
 
 
 def plot_residuals_vs_factor(
@@ -157,7 +157,7 @@ def plot_discrepancy_gap(report: Any, *, title: str | None = None) -> Figure:
 
 def plot_cabin_record(report: Any, data: Any, *, title: str | None = None) -> Figure:
     """A record of the FAST cabin's free vibration (``data``, a
-    :class:`~stewart_jax.discrepancy.CabinRecordData`) diagnosed in ``report``: each of the six
+    :class:`~stewart_jax.discrepancy._cabin_record.CabinRecordData`) diagnosed in ``report``: each of the six
     pose coordinates against time, the samples as dots beside the base model's prediction
     (quasi-static cables) and the augmented model's (the named effect added), both fitted to the
     training samples."""
