@@ -292,8 +292,6 @@ def cabin_record_model(
         modal = cabin_modal_model(params, position, segments)
     elif not np.allclose(np.asarray(modal.position), np.asarray(position, dtype=np.float64)):
         raise ValueError(f"the modal model is for {np.asarray(modal.position).tolist()} m, not {list(position)} m")
-    check_sampling(data, modal)
-    duration = float(data.time[-1] - data.time[0])
     notes = check_sampling(data, modal)
     duration = float(data.time[-1] - data.time[0])
     ranges = {"cable_inertia": MASS_SHARE_RANGE, "cable_stiffness": modal.ea_range, "cabin_mass": modal.mass_range}
