@@ -4,8 +4,8 @@ record file and its bad inputs, and the workflow on records with each effect hid
 
 Every record is simulated ONCE per module by a time integrator (never by the modal
 superposition the workflow fits) at the centre, N = 3 segments per cable, 20 s sampled at
-10 Hz; the tracker noise is drawn per seed. All ``diagnose`` calls share one compiled kernel
-(same record length, one modal model).
+5 Hz; the tracker noise is drawn per seed. All ``diagnose`` calls share one compiled kernel
+(same record length, one modal model) and run once per module (the ``runs`` fixture).
 """
 
 import json
@@ -42,7 +42,7 @@ cabin_modes_jit = jax.jit(cabin_modes)
 PARAMS = paper_fast_params()
 POS = (0.0, 0.0, 140.0)
 N = 3
-T_S, RATE_HZ, DT_S = 20.0, 10.0, 5e-3
+T_S, RATE_HZ, DT_S = 20.0, 5.0, 5e-3  # 5 Hz: above twice the highest cabin mode (1.3 Hz)
 # 20 mm of swing: the pendulum's second-order rise (z ≈ x²/2L, ~0.06 mm here) stays far below
 # the noise; the modal model is linear.
 Q0 = np.array([0.02, 0.01, 0.005, *np.deg2rad([0.01, 0.01, 0.02])])
@@ -201,44 +201,55 @@ def test_bad_records_are_refused_by_name(tmp_path, modal):
 
 # ------------------------------------------------------------------------ the workflow
 
-@pytest.mark.parametrize("case", ["cable_inertia", "cable_stiffness", "cabin_mass", "damping"])
-def test_each_hidden_effect_is_named(modal, decays, case):
-    # Rates over the tracker noise's seeds (the simulation is deterministic). Measured: 6 of 6
-    # named for cable_inertia, cable_stiffness and cabin_mass, 4 of 4 for damping; 3 of 4 allows
-    # one miss (the held-out test rejects a right model at α = 5 % per run), never a wrong name.
-    # The rates over record length and noise are benchmarks/fast_cabin_record.py's.
-    named, gaps = [], []
-    for s in range(4):
-        data = _data(decays[case], s)
-        rep = diagnose(data, cabin_record_model(data, POS, modal=modal), seed=s)
-        assert rep.detected
-        named.append(rep.named_effect)
-        gaps.append((rep.gap_before, rep.gap_after, rep.noise_floor))
-    assert named.count(case) >= 3, named
+# Rates over the tracker noise's seeds (each simulation is deterministic): SEEDS runs per hidden
+# effect, NULL_SEEDS on the paper's own model. Every run is one `diagnose` (one compiled kernel
+# for all, the command line's included: the same record length and rate, one modal model).
+SEEDS, NULL_SEEDS = 3, 4
+
+
+@pytest.fixture(scope="module")
+def runs(modal, decays):
+    """``{case: [(report, model), ...]}`` for every hidden effect and the paper's model."""
+    out = {}
+    for case in (*HIDDEN, "none"):
+        out[case] = []
+        for s in range(NULL_SEEDS if case == "none" else SEEDS):
+            data = _data(decays[case], s)
+            model = cabin_record_model(data, POS, modal=modal)
+            out[case].append((diagnose(data, model, seed=s), model))
+    return out
+
+
+@pytest.mark.parametrize("case", list(HIDDEN))
+def test_each_hidden_effect_is_named(runs, case):
+    # Measured at 5 Hz: 3 of 3 named for each effect (at 10 Hz, 6 of 6 for cable_inertia,
+    # cable_stiffness and cabin_mass, 4 of 4 for damping); 2 of 3 allows one miss (the held-out
+    # test rejects a right model at α = 5 % per run), never a wrong name. The rates over record
+    # length and noise are benchmarks/fast_cabin_record.py's.
+    reps = [r for r, _ in runs[case]]
+    named = [r.named_effect for r in reps]
+    assert all(r.detected for r in reps)
+    assert named.count(case) >= SEEDS - 1, named
     assert all(n in (case, None) for n in named), named  # never a wrong name
-    g = np.array(gaps)
+    g = np.array([(r.gap_before, r.gap_after, r.noise_floor) for r in reps])
     assert np.all(g[:, 0] > 1.1 * g[:, 2]) and np.median(g[:, 1] / g[:, 2]) < 1.1
 
 
-def test_no_false_alarm_on_a_quasi_static_record(modal, decays):
+def test_no_false_alarm_on_a_quasi_static_record(runs):
     # The paper's own model made the record: nothing may be named. The held-out test fires at
-    # α = 5 % by construction (measured: 0 of 6); 1 of 6 runs allowed.
-    reps = []
-    for s in range(6):
-        data = _data(decays["none"], s)
-        reps.append(diagnose(data, cabin_record_model(data, POS, modal=modal), seed=s))
+    # α = 5 % by construction (measured: 0 of 4 here, 0 of 36 in the benchmark); 1 of 4 allowed.
+    reps = [r for r, _ in runs["none"]]
     assert sum(r.detected for r in reps) <= 1
     assert all(r.named_effect is None for r in reps)
 
 
-def test_the_fitted_mass_share_is_the_lumped_models(modal, decays):
-    data = _data(decays["cable_inertia"], 11)
-    model = cabin_record_model(data, POS, modal=modal)
-    rep = diagnose(data, model, seed=11)
-    mu = next(c for c in rep.ranking if c.effect == "cable_inertia").params[0]
-    assert abs(mu - 1.0) < 0.02
-    modes = fitted_modes(model, rep.fitted.effects, rep.fitted.thetas)
+def test_the_fitted_mass_share_is_the_lumped_models(runs):
     lm = np.asarray(lumped_modes(PARAMS, POS, N).frequencies_hz)
+    for rep, _ in runs["cable_inertia"]:
+        mu = next(c for c in rep.ranking if c.effect == "cable_inertia").params[0]
+        assert abs(mu - 1.0) < 0.02
+    rep, model = runs["cable_inertia"][0]
+    modes = fitted_modes(model, rep.fitted.effects, rep.fitted.thetas)
     # the augmented model's lowest cabin mode is the lumped model's (to the fitted μ), the
     # quasi-static model's far above it
     assert abs(modes["frequencies_hz"][0] - lm[0]) < 0.01 * lm[0]
@@ -253,7 +264,8 @@ def test_the_command_line_writes_and_diagnoses_a_record(tmp_path, capsys):
     # One run of the plumbing (the rates are tested above): noise seed 0, whose held-out p for the
     # named effect is 0.93 (seed 4's is 0.035, a right model rejected at α = 5 %).
     assert main(["fast", "--free-decay", "--cables", "lumped", "--segments", str(N), "--duration", str(T_S),
-                 "--dt", str(DT_S), "--out", str(rec), "--json", str(js), "--seed", "0"]) == 0
+                 "--dt", str(DT_S), "--rate-hz", str(RATE_HZ), "--out", str(rec), "--json", str(js),
+                 "--seed", "0"]) == 0
     fd = json.loads(js.read_text())
     assert fd["status"] == "ok" and fd["rows"] == int(T_S * RATE_HZ) + 1 and fd["cables"]["segments"] == N
     plots, model = tmp_path / "plots", tmp_path / "model.json"
