@@ -397,6 +397,9 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", default=",".join([*OURS, *REFERENCE_OF.values()]))
     ap.add_argument("--no-batched", action="store_true")
     ap.add_argument("--no-cocopp", action="store_true")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the methods a cut-short run of the same settings finished (results/bbob_runs.partial"
+                         ".json and their COCO logs); run the others")
     ap.add_argument("--postprocess-only", action="store_true",
                     help="only cocopp on the logs in results/bbob/exdata (of --methods)")
     args = ap.parse_args(argv)
@@ -431,8 +434,19 @@ def main(argv=None) -> int:
     os.chdir(OUT)  # cocoex writes its logs to ./exdata
     experiment, folders = {}, []
     try:
+        partial = os.path.join(RESULTS, "bbob_runs.partial.json")
+        done = {}
+        if args.resume and os.path.exists(partial):
+            with open(partial) as fh:
+                done = json.load(fh)
         for alg in methods:
             folder = f"{alg}"
+            if alg in done and os.path.isdir(os.path.join("exdata", folder)):  # --resume: kept, COCO logs too
+                experiment[alg] = {"rows": done[alg]}
+                COMPILE_S.update(done.get("_compile_s", {}))
+                folders.append(os.path.join(OUT, "exdata", folder))
+                print(f"{alg}: kept from {os.path.relpath(partial)}", flush=True)
+                continue
             shutil.rmtree(os.path.join("exdata", folder), ignore_errors=True)
             t0 = time.perf_counter()
             experiment[alg] = coco_experiment(alg, functions, dims, instances, args.budget_factor, folder)
@@ -440,6 +454,8 @@ def main(argv=None) -> int:
             solved = sum(r["solved"] for r in experiment[alg]["rows"])
             print(f"{alg}: {solved}/{len(experiment[alg]['rows'])} solved, {time.perf_counter() - t0:.0f} s",
                   flush=True)
+            with open(partial, "w") as fh:  # so far, for --resume after a cut
+                json.dump({**{a: d["rows"] for a, d in experiment.items()}, "_compile_s": COMPILE_S}, fh)
     finally:
         os.chdir(here)
     def payload_now(batched_rows):

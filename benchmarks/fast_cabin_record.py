@@ -38,7 +38,6 @@ from stewart_jax.cable_robot import (  # noqa: E402
     lumped_free_decay,
     paper_fast_params,
     quasi_static_free_decay,
-    sample_record,
 )
 from stewart_jax.discrepancy import cabin_record_model, diagnose, read_cabin_record  # noqa: E402
 
@@ -91,7 +90,7 @@ def main() -> None:
                 t1 = time.perf_counter()
                 for s in range(seeds):
                     part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])  # the record's first T s
-                    r = sample_record(part, RATE_HZ, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s)
+                    r = part.sample(RATE_HZ, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s)
                     data = read_cabin_record(r)
                     model = cabin_record_model(data, POS, modal=modal, sigma_um=1e3 * sigma,
                                                sigma_arcsec=36.0 * sigma)

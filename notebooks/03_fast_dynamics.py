@@ -224,7 +224,7 @@ modal = cable_robot.cabin_modal_model(params, np.array([0.0, 0.0, 140.0]), N_SEG
 fig, ax = plt.subplots(figsize=(7.0, 4.0))
 ax.axhspan(0.12, 0.2, color="0.85", label="measured lowest mode, 0.12–0.2 Hz")
 for i, mu in enumerate(np.linspace(0.0, 1.0, 6 if QUICK else 21)):
-    m = cable_robot.cabin_modal_modes(modal, cable_robot.CabinVariation(float(mu)))
+    m = modal.modes(cable_robot.CabinVariation(float(mu)))
     f, e = np.asarray(m.frequencies_hz), np.asarray(m.cabin_energy_share)
     keep = (e >= 0.05) & (f < 1.5)
     ax.scatter(np.full(keep.sum(), mu), f[keep], s=80 * e[keep], color="C3",

@@ -56,18 +56,54 @@ def valid_poses(poses: Array) -> Array:
     return jnp.all(jnp.isfinite(poses), axis=-1) & jnp.all(jnp.abs(poses[..., 3:]) <= MAX_ANGLE_RAD, axis=-1)
 
 
-def field_array(x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False) -> Array:
+def field_array(
+    x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False, unit: str | None = None
+) -> Array:
     """A mechanism family's array field: float64 with trailing shape ``shape``, finite (and > 0
-    with ``positive``), each failure naming ``owner.name``; a tracer (the family built under
-    ``jit``/``vmap`` from checked values) passes unchecked."""
+    with ``positive``), each failure naming ``owner.name`` and its ``unit``; a tracer (the family
+    built under ``jit``/``vmap`` from checked values) passes unchecked."""
     if isinstance(x, jax.core.Tracer):
         return x
-    a = np.asarray(x, dtype=np.float64)
+    return jnp.asarray(field_numpy(x, owner, name, shape, positive=positive, unit=unit))
+
+
+def field_numpy(
+    x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False, unit: str | None = None
+) -> np.ndarray:
+    """:func:`field_array`'s checks on a concrete value, returned as NumPy.
+
+    NOTE: checks stay in NumPy: under ``jit`` even ``jnp.asarray`` of a constant is staged out as
+    a tracer, which a NumPy conversion would then reject."""
+    in_unit = f" ({unit})" if unit else ""
+    a = field_numbers(x, owner, name)
     if a.shape[a.ndim - len(shape):] != shape or a.ndim < len(shape):
-        raise ValueError(f"{owner}.{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{owner}.{name} contains NaN or inf: {a.tolist()}")
+        raise ValueError(f"{owner}.{name} must have shape {shape}{in_unit}, got {a.shape}")
     if positive and np.any(a <= 0):
         bad = np.flatnonzero(a.reshape(-1) <= 0)
-        raise ValueError(f"{owner}.{name} must be positive, got {a.reshape(-1)[bad].tolist()} at {bad.tolist()}")
-    return jnp.asarray(a)
+        raise ValueError(f"{owner}.{name} must be positive{in_unit}, got {a.reshape(-1)[bad].tolist()} at "
+                         f"{bad.tolist()} (all: {a.tolist()})")
+    return a
+
+
+def field_numbers(x, owner: str, name: str) -> np.ndarray:
+    """``x`` as a finite float64 NumPy array, or an error naming ``owner.name``."""
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{owner}.{name} must be numbers, got {x!r}") from None
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{owner}.{name} contains NaN or inf: {a.tolist()}")
+    return a
+
+
+def field_travel(x, owner: str, lengths: tuple[str, ...], angles: tuple[str, ...]) -> tuple[float, ...]:
+    """A family's travel half-widths: the ``lengths`` (mm) then the ``angles`` (rad), every one
+    positive, the angles checked against degrees."""
+    a = field_numbers(x, owner, "travel")
+    n = len(lengths) + len(angles)
+    if a.shape != (n,) or not np.all(a > 0):
+        raise ValueError(f"{owner}.travel must be {n} positive half-widths ({', '.join(lengths)} in mm, "
+                         f"{', '.join(angles)} in rad), got {a.tolist()}")
+    if np.any(a[len(lengths):] > MAX_ANGLE_RAD):
+        raise ValueError(f"{owner}.travel angles are radians; {a[len(lengths):].tolist()} looks like degrees")
+    return tuple(float(v) for v in a)

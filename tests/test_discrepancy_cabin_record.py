@@ -20,13 +20,11 @@ from stewart_jax._cli import main
 from stewart_jax.cable_robot import (
     CabinVariation,
     cabin_modal_model,
-    cabin_modal_modes,
     cabin_modes,
     lumped_free_decay,
     lumped_modes,
     paper_fast_params,
     quasi_static_free_decay,
-    sample_record,
 )
 
 # private building blocks tested on their own: the modal sum the workflow fits, the EA and mass
@@ -78,7 +76,7 @@ def decays():
 
 
 def _data(decay, seed):
-    r = sample_record(decay, RATE_HZ, sigma_mm=SIGMA_MM, sigma_deg=SIGMA_DEG, seed=seed)
+    r = decay.sample(RATE_HZ, sigma_mm=SIGMA_MM, sigma_deg=SIGMA_DEG, seed=seed)
     return read_cabin_record(r)
 
 
@@ -88,7 +86,7 @@ def _data(decay, seed):
 def test_the_modal_model_is_the_quasi_static_model_at_zero_and_the_lumped_model_at_one(modal):
     cm = cabin_modes_jit(PARAMS, jnp.asarray(POS))
     qs = np.asarray(cm.frequencies_hz)
-    f0 = np.asarray(cabin_modal_modes(modal, CabinVariation()).frequencies_hz)
+    f0 = np.asarray(modal.modes().frequencies_hz)
     # (the string modes' coupling, evaluated at a mass share of 1e-4 near 0, moves them by ~1e-6)
     np.testing.assert_allclose(f0[:6], qs, rtol=5e-6)
     # the string modes leave for ≥ 100 × their frequency; the response is the six quasi-static
@@ -101,7 +99,7 @@ def test_the_modal_model_is_the_quasi_static_model_at_zero_and_the_lumped_model_
     got = np.asarray(free_response(modal, CabinVariation(), 0.0, Q0, np.zeros(6), t))
     np.testing.assert_allclose(got, exact, rtol=0, atol=1e-4 * np.max(np.abs(exact)))
     lm = np.asarray(lumped_modes(PARAMS, POS, N).frequencies_hz)
-    np.testing.assert_allclose(np.asarray(cabin_modal_modes(modal, CabinVariation(1.0)).frequencies_hz), lm,
+    np.testing.assert_allclose(np.asarray(modal.modes(CabinVariation(1.0)).frequencies_hz), lm,
                                rtol=1e-6)
 
 
@@ -111,7 +109,7 @@ def test_the_stiffness_tables_match_the_statics_solved_again(modal, ea, mass):
     # (the tables hold K to 1e-6; the string modes' coupling near μ = 0 adds ~1e-6)
     direct = np.asarray(cabin_modes_jit(scaled_params(PARAMS, ea, mass), jnp.asarray(POS)).frequencies_hz)
     var = CabinVariation(ea_change=ea - 1.0, mass_change=mass - 1.0)
-    np.testing.assert_allclose(np.asarray(cabin_modal_modes(modal, var).frequencies_hz)[:6], direct, rtol=5e-6)
+    np.testing.assert_allclose(np.asarray(modal.modes(var).frequencies_hz)[:6], direct, rtol=5e-6)
 
 
 def test_the_mass_share_derivative_at_zero_is_the_cables_added_mass(modal):
@@ -126,7 +124,7 @@ def test_the_mass_share_derivative_at_zero_is_the_cables_added_mass(modal):
 
 
 def test_damping_group_shares_partition_each_cabin_mode(modal):
-    s = np.asarray(cabin_modal_modes(modal, CabinVariation()).group_share)[:6]
+    s = np.asarray(modal.modes().group_share)[:6]
     np.testing.assert_allclose(s.sum(axis=1), 1.0, rtol=1e-12)
     assert len(DAMPING_GROUPS) == 3
 
@@ -157,7 +155,7 @@ def test_the_modal_superposition_reproduces_the_time_integrators(modal, decays, 
 
 
 def test_a_record_file_round_trips(tmp_path, decays):
-    r = sample_record(decays["none"], RATE_HZ, sigma_mm=SIGMA_MM, sigma_deg=SIGMA_DEG, seed=3)
+    r = decays["none"].sample(RATE_HZ, sigma_mm=SIGMA_MM, sigma_deg=SIGMA_DEG, seed=3)
     path = tmp_path / "record.csv"
     write_record(path, r)
     d = read_cabin_record(path)

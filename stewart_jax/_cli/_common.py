@@ -52,8 +52,9 @@ def geometry_args(p: argparse.ArgumentParser, *, true: bool) -> None:
     param_set_arg(p)
     if true:
         p.add_argument("--true", default=None,
-                       help="true geometry (preset or file); default: 'actual' for the paper's 'nominal', "
-                            "else the nominal one perturbed by --perturb-mm")
+                       help="true geometry (preset or file); default: the preset's measured geometry where one is "
+                            "registered ('actual' for the paper's 'nominal'), else the nominal one perturbed by "
+                            "--perturb-mm")
         p.add_argument("--perturb-mm", type=float, default=0.5,
                        help="σ (mm) of the Gaussian error on every length parameter of the default true mechanism")
         p.add_argument("--perturb-mrad", type=float, default=None,
@@ -87,13 +88,13 @@ def nominal_and_true(args: argparse.Namespace):
     import jax
 
     from ..calibration._simulation import perturbed
-    from ..mechanism._registry import load_mechanism
+    from ..mechanism._registry import load_mechanism, measured_preset
 
     nominal = load_nominal(args)
     if args.true is not None:
         true = load_mechanism(args.true)
-    elif args.geometry == "nominal":
-        true = load_mechanism("actual")
+    elif measured_preset(args.geometry) is not None:
+        true = load_mechanism(measured_preset(args.geometry))
     else:
         true = perturbed(nominal, jax.random.fold_in(jax.random.key(args.seed), 1_000_003), args.perturb_mm,
                          getattr(args, "perturb_mrad", None))

@@ -397,7 +397,7 @@ def _free_decay_problem(args) -> str | None:
 
 def _run_free_decay(args, params, sol, out: dict) -> int:
     """``--free-decay``: simulate the release of the displaced cabin and write the record."""
-    from ..cable_robot import lumped_free_decay, quasi_static_free_decay, sample_record
+    from ..cable_robot import lumped_free_decay, quasi_static_free_decay
     from ..cable_robot._cabin_modal import scaled_params
     from ..cable_robot._free_decay import write_record
 
@@ -413,7 +413,7 @@ def _run_free_decay(args, params, sol, out: dict) -> int:
         dec = quasi_static_free_decay(p, args.position, args.duration, args.dt, displacement=q0, velocity=v0,
                                       damping_ratio=zeta, damping_change=change)
     seconds = time.perf_counter() - t0
-    rec = sample_record(dec, args.rate_hz, sigma_mm=args.noise_mm, sigma_deg=args.noise_deg, seed=args.seed)
+    rec = dec.sample(args.rate_hz, sigma_mm=args.noise_mm, sigma_deg=args.noise_deg, seed=args.seed)
     write_record(args.out, rec)
     low = dec.frequencies_hz[dec.frequencies_hz > 0]
     ok = dec.failed_solves == 0

@@ -21,7 +21,10 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
 - :mod:`._modes` — beyond the paper: stiffness, mass matrix, natural frequencies and mode
   shapes of the cabin on its cables; the cables' own string frequencies.
 - :mod:`._lumped` — beyond the paper: lumped-mass cables (MoorDyn's discretisation), statics
-  of nodes and cabin together, and every mode of the whole system.
+  of nodes and cabin together, every mode of the whole system (dense) or those below a
+  cut-off (banded).
+- :mod:`._lumped_blocks` — the lumped cables' sparsity: the Hessian by blocks (a star of six
+  block-tridiagonal chains), chain-by-chain solves, the banded standard form.
 - :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
   (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
 - :mod:`._cabin_modal` — beyond the paper: the cabin's free vibration as a differentiable modal
@@ -36,10 +39,10 @@ the coupled simulation of §6 (compiled once with ``jax.jit(run_scenario,
 static_argnames=("duration", "dt", "start", "method"))``); :func:`cabin_statics`,
 :func:`workspace_map` and :func:`focal_surface_point`; :func:`solve_attitude` and
 :func:`smallest_feasible_tilt`; :func:`cabin_modes`, :func:`modes_map` and
-:func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`modal_summary`
-and :func:`simulate_lumped`; :func:`cabin_modal_model` and
-:func:`cabin_modal_modes` (with a :class:`CabinVariation`), :func:`lumped_free_decay`,
-:func:`quasi_static_free_decay` and :func:`sample_record`. The modules' building blocks (the
+:func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`lumped_low_modes`,
+:func:`modal_summary` and :func:`simulate_lumped`; :func:`cabin_modal_model` (its ``modes``
+under a :class:`CabinVariation`), :func:`lumped_free_decay` and :func:`quasi_static_free_decay`
+(their ``sample``, a tracker's record). The modules' building blocks (the
 catenary's Jacobian and starts, the platform's Newton–Euler dynamics, the integrator behind
 :func:`run_scenario`, the modal sum and the record CSV's writer) are private.
 """
@@ -52,25 +55,19 @@ from ._attitude import (
     smallest_feasible_tilt as smallest_feasible_tilt,
     solve_attitude as solve_attitude,
 )
-from ._cabin_modal import (
-    CabinVariation as CabinVariation,
-    cabin_modal_model as cabin_modal_model,
-    cabin_modal_modes as cabin_modal_modes,
-)
+from ._cabin_modal import CabinVariation as CabinVariation, cabin_modal_model as cabin_modal_model
 from ._catenary import (
     CableParams as CableParams,
     CatenarySolution as CatenarySolution,
     solve_catenary as solve_catenary,
 )
-from ._free_decay import (
-    lumped_free_decay as lumped_free_decay,
-    quasi_static_free_decay as quasi_static_free_decay,
-    sample_record as sample_record,
-)
+from ._free_decay import lumped_free_decay as lumped_free_decay, quasi_static_free_decay as quasi_static_free_decay
 from ._lumped import (
+    LumpedLowModes as LumpedLowModes,
     LumpedModes as LumpedModes,
     LumpedStatics as LumpedStatics,
     ModalSummary as ModalSummary,
+    lumped_low_modes as lumped_low_modes,
     lumped_modes as lumped_modes,
     lumped_statics as lumped_statics,
     modal_summary as modal_summary,

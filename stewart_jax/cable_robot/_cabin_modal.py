@@ -137,6 +137,11 @@ class CabinModalModel(eqx.Module):
     ea_range: tuple[float, float] = eqx.field(static=True)
     mass_range: tuple[float, float] = eqx.field(static=True)
 
+    def modes(self, variation: CabinVariation | None = None) -> CabinModalModes:
+        """The modes of the cabin (and the cables' fixed-interface modes, with inertia) under
+        ``variation`` (default: the paper's model), ascending (:class:`CabinModalModes`)."""
+        return cabin_modal_modes(self, CabinVariation() if variation is None else variation)
+
 
 def scaled_params(params: FastParams, ea_factor=1.0, mass_factor=1.0) -> FastParams:
     """``params`` with the cables' ``EA × ea_factor`` and every mass and inertia of the cabin

@@ -73,6 +73,10 @@ class FreeDecay(NamedTuple):
     failed_solves: int
     max_strain: float
 
+    def sample(self, rate_hz: float, *, sigma_mm: float = 1.0, sigma_deg: float = 0.01, seed: int = 0) -> CabinRecord:
+        """The decay as a tracker records it (:func:`sample_record`)."""
+        return sample_record(self, rate_hz, sigma_mm=sigma_mm, sigma_deg=sigma_deg, seed=seed)
+
 
 def _check_common(position, duration, dt, displacement, velocity, damping_ratio):
     check_position(position)

@@ -114,7 +114,7 @@ def record_data(time, position_mm, rotation_deg, source: str = "record") -> Cabi
 def read_cabin_record(source: str | os.PathLike[str] | CabinRecord) -> CabinRecordData:
     """Read a cabin record: a CSV (columns ``time,x,y,z,rx,ry,rz``: s; mm; degrees; other
     columns ignored) or a :class:`~stewart_jax.cable_robot._free_decay.CabinRecord` in memory
-    (:func:`~stewart_jax.cable_robot.sample_record`'s), with a clear error for a missing
+    (``FreeDecay.sample``'s), with a clear error for a missing
     column, a cell that is not a number, a time that does not increase, an uneven sampling."""
     if isinstance(source, CabinRecord):
         return record_data(source.time, source.position_mm, source.rotation_deg)

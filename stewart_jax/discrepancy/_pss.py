@@ -21,7 +21,7 @@ from jaxtyping import Array, Float
 
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
-from ..mechanism._pss import Geometry, PSSMechanism, rod_lengths, slider_leg
+from ..mechanism._pss import Geometry, PSSMechanism, rod_lengths, slider_leg_arrays
 from ._families import check_noise, register_model_family
 from ._pose_noise import AbstractMechanismModel
 
@@ -67,8 +67,8 @@ def pss_strokes(
     lengths ``L_i = |Ac_i + v0 − Bc_i| + dlength``: the root of
     ``|a_i − Bc_i − q·n_i| = L_i`` with the slider below the upper joint — the mechanism's own
     generalised leg (:func:`~stewart_jax.mechanism._pss.slider_leg`, cancellation-free, exactly 0
-    at the zero pose, Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``)."""
-    return slider_leg(poses, upper, upper + v0 - lower, axes, dlength).strokes
+    at the zero pose, Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``) on poses by legs."""
+    return slider_leg_arrays(poses, upper, upper + v0 - lower, axes, dlength).strokes
 
 
 class PSSModel(AbstractMechanismModel):
@@ -112,7 +112,7 @@ class PSSModel(AbstractMechanismModel):
         """``∂q/∂P`` of the base model at each pose.
 
         NOTE: the forward-mode derivative of :func:`pss_strokes`, not the analytic
-        :func:`~stewart_jax.kinematic_jacobian`: equal to rounding, but the whitened fits are
+        closed-form ``ik_and_jacobian`` of the mechanism: equal to rounding, but the whitened fits are
         ill-conditioned enough (cond ~1e5) that switching moves reported statistics by up to
         ~1e-6 relative, so the published numbers keep this Jacobian (see
         ``tests/test_discrepancy.py`` for the agreement of the two)."""

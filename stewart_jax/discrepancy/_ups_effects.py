@@ -6,7 +6,7 @@ platform for use in FAST") have the same leg as Wang et al. 2018, "Improved cuck
 method of space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering
 47(5), eq. 2, with a length-changing strut in place of the slider and fixed rod. Each effect is
 the physics of the *true* strut written as a change of the model's
-:class:`~stewart_jax.discrepancy.UPSState`; ``theta = 0`` is the 42-parameter model. Parameters
+:class:`~stewart_jax.discrepancy._ups.UPSState`; ``theta = 0`` is the 42-parameter model. Parameters
 are per strut (index ``i`` = strut ``i + 1``) unless stated; ``m`` is the number of poses.
 
 Effects are registered per model, so the 6-PSS's slider effects (``actuator_tilt``) are not

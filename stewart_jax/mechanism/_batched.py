@@ -4,7 +4,7 @@ fixed-step Newton FK (any mechanism).
 Same mathematics as the 6-PSS inverse kinematics of Wang et al. (2018) (eq. 4 in its
 cancellation-free form) and the forward kinematics (eqs. 5–6 by Newton's method),
 arranged for throughput on CPU. ``benchmarks/kinematics.py`` measures these against
-:func:`~stewart_jax.solve_inverse_kinematics` /
+:meth:`~stewart_jax.mechanism.PSSMechanism.solve_inverse_kinematics` /
 :func:`~stewart_jax.forward_kinematics` and NumPy (results in ``benchmarks/results/``).
 
 What the measurements say (2-core AMD EPYC, float64, XLA:CPU of jax 0.10):
@@ -41,7 +41,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import MAX_ANGLE_RAD, check_array, check_poses
 from ._abstract import AbstractMechanism, IKSolution
 from ._kinematics import FKSolution, ik_and_jacobian
-from ._pss import PSSMechanism, leg_stroke
+from ._pss import PSSMechanism, slider_leg
 
 # Taylor coefficients of sin(x)/x and cos(x) in x²: through x¹³ and x¹⁴. For |x| ≤ 0.5 the
 # truncation error is < 5e-17 and the Horner evaluation agrees with libm to 1 ulp (checked
@@ -81,14 +81,15 @@ def _rotation_rows(angles, sincos):
 
 
 def _ik_rows(geometry: PSSMechanism, poses_soa, sincos):
-    """Eq. 4 leg by leg on rows; returns (strokes, margin) as lists of 6 rows."""
+    """Eq. 4 leg by leg on rows (the mechanism's own leg, :func:`~stewart_jax.mechanism._pss.slider_leg`);
+    returns (strokes, margin) as lists of 6 rows."""
     r = _rotation_rows(poses_soa[3:6], sincos)
     t = [r[0:3], r[3:6], r[6:9]]
     d = [poses_soa[0], poses_soa[1], poses_soa[2]]
     upper = geometry.upper
     e = upper + geometry.v0 - geometry.lower
-    legs = [leg_stroke(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
-    return [q for q, _ in legs], [margin for _, margin in legs]
+    legs = [slider_leg(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
+    return [leg.strokes for leg in legs], [leg.margin for leg in legs]
 
 
 def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..."]) -> IKSolution:
@@ -96,12 +97,12 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
 
     ``poses_soa[k]`` is pose component ``k`` of ``[dx, dy, dz, φ, θ, ψ]`` (mm, rad) for every
     pose, i.e. the transpose ``poses.T`` of the ``(N, 6)`` array that
-    :func:`~stewart_jax.solve_inverse_kinematics` takes; any trailing batch shape is
-    allowed. Returns an :class:`~stewart_jax.IKSolution` in the same layout:
+    :meth:`~stewart_jax.mechanism.PSSMechanism.solve_inverse_kinematics` takes; any trailing batch shape is
+    allowed. Returns an :class:`~stewart_jax.mechanism.IKSolution` in the same layout:
     ``strokes`` and ``margin`` of shape ``(6, *batch)`` (leg first), ``reachable`` of shape
     ``batch``. Pure and jittable; batch over geometries with ``jax.vmap``.
 
-    Agrees with :func:`~stewart_jax.solve_inverse_kinematics` to ~1e-13 mm (float64
+    Agrees with :meth:`~stewart_jax.mechanism.PSSMechanism.solve_inverse_kinematics` to ~1e-13 mm (float64
     rounding). When every angle is within ±0.5 rad (``MAX_ANGLE_RAD``, the library's limit
     for a pose) the sines and cosines come from a 1-ulp polynomial; otherwise the whole
     batch uses ``jnp.sin``/``jnp.cos``, the slow but general path (one ``lax.cond``; under a
@@ -239,7 +240,7 @@ def forward_kinematics_newton(
     """Forward kinematics by a fixed number of full Newton steps: the fast batched path.
 
     Same problem and result type as :func:`~stewart_jax.forward_kinematics` (strokes
-    ``(..., 6)`` in mm → :class:`~stewart_jax.FKSolution`), solved differently: exactly
+    ``(..., 6)`` in mm → :class:`~stewart_jax.mechanism.FKSolution`), solved differently: exactly
     ``steps`` Newton steps from ``initial_pose`` (default the zero pose) with the analytic
     6×6 Jacobian, no line search and no data-dependent loop, then one residual evaluation.
     ``converged`` is ``max |IK(P) − q| ≤ tol`` with every leg reachable; ``steps`` in the

@@ -16,6 +16,12 @@ rod lengths may be given. With ``w_i = T·Ac_i + d + v0 − Bc_i`` the rod vecto
 ``n_i = e_z``. Three calibration parameter sets: ``"36"`` (the paper's), ``"42"`` (+ the six rod
 lengths) and ``"54"`` (+ two tilt angles per slider axis, in mrad, so that Ω's ± half-width in
 mm reads as ± the same number of mrad). Units: mm.
+
+The leg is written once, :func:`slider_leg`, on components that broadcast against each other:
+the inverse kinematics and its closed-form Jacobians call it on arrays (poses by legs), the
+population objective on structure-of-arrays columns (poses by population members, every parameter
+set), the fast path of ``_batched.py`` on rows of poses, the discrepancy model with its per-pose
+rod lengths and tilted axes.
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import valid_poses
+from .._checks import field_array, field_numpy, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, check_keys, register_family, register_preset
@@ -101,7 +107,7 @@ class PSSMechanism(AbstractMechanism):
         self.lengths = None if rod_lengths is None else _positive(rod_lengths, "rod_lengths")
         if tilt is None and param_set == "54":
             tilt = jnp.zeros(2 * N_LEGS)
-        self.tilt = None if tilt is None else _as_float64(tilt, "tilt", (2 * N_LEGS,))
+        self.tilt = None if tilt is None else field_array(tilt, "PSSMechanism", "tilt", (2 * N_LEGS,), unit="mrad")
         self.param_set = param_set
 
     @property
@@ -213,19 +219,15 @@ class PSSMechanism(AbstractMechanism):
         the slider below the upper joint; ``margin`` is the square-root argument (mm²).
         ``poses`` may have any leading batch shape; batch over geometries with ``jax.vmap``.
 
-        NOTE: eq. 4 is evaluated in a cancellation-free form. With ``e_i = Ac_i + v0 − Bc_i``
+        Evaluated cancellation-free by the leg :func:`slider_leg`: with ``e_i = Ac_i + v0 − Bc_i``
         the zero-pose leg and ``δ_i = T·Ac_i − Ac_i + d`` the joint's displacement,
         ``L² − ℓx² − ℓy² = e_z² − δx(2e_x + δx) − δy(2e_y + δy)`` and, rationalising
-        ``q = ℓz − sqrt(m)``, ``q = Σ_k δ_k(2e_k + δ_k) / (ℓz + sqrt(m))``. Strokes of a few mm
-        then keep full relative precision instead of being the difference of two ~200 mm
-        numbers, and ``q`` is exactly 0 at the zero pose for any geometry.
-
-        The generalised mechanism (slider axes ``n``, rod lengths ``L``) uses the same idea:
-        ``q = c / (n·w + sqrt((n·w)² − c))`` with ``w = e + δ`` and
-        ``c = |w|² − L² = δ·(2e + δ) − ΔL·(2|e| + ΔL)``, ``ΔL = L − |e|``; the margin is
-        ``(n·w)² − c``.
+        ``q = ℓz − sqrt(m)``, ``q = Σ_k δ_k(2e_k + δ_k) / (ℓz + sqrt(m))``; ``q`` is exactly 0 at
+        the zero pose for any geometry. The generalised mechanism (slider axes ``n``, rod lengths
+        ``L``): ``q = c / (n·ℓ + sqrt((n·ℓ)² − c))`` with ``c = δ·(2e + δ) − ΔL·(2|e| + ΔL)``,
+        ``ΔL = L − |e|``; the margin is ``(n·ℓ)² − c``.
         """
-        parts = _ik_parts(self, poses) if self.is_paper_model else _general_ik_parts(self, poses)
+        parts = _ik_parts(self, poses)
         return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
@@ -304,27 +306,33 @@ class PSSMechanism(AbstractMechanism):
         self, params: Float[Array, "n p"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
     ) -> tuple[Float[Array, " n"], Bool[Array, " n"]]:
         """``Σ (readings − q(poses; u))²`` and reachability for every row ``u`` of ``params``
-        (:meth:`AbstractMechanism.population_squared_residuals`); the paper's 36 parameters in
-        structure-of-arrays form, the other sets by the ``vmap`` default.
+        (:meth:`AbstractMechanism.population_squared_residuals`), every parameter set, in
+        structure-of-arrays form: :func:`slider_leg` on ``(m, n)`` arrays.
 
         NOTE: under ``vmap`` over the population the per-member IK runs on ``(n, m, 6, 3)``
         arrays whose innermost axis (x, y, z) is too short for the vector units, and the
         rotation ``T·Ac`` and the sums become small library calls per nest. Here every
         quantity is an ``(m, n)`` array, pose by row and the population innermost, built from
         the rotation entries (computed once for the ``m`` poses) by explicit multiply-adds, and
-        the six legs are summed in registers: 2–5× faster for 37–370 nests. Same
-        cancellation-free eq. 4 as :meth:`solve_inverse_kinematics`.
+        the six legs are summed in registers: 2–5× faster for 37–370 nests.
         """
-        if not self.is_paper_model:
-            return super().population_squared_residuals(params, poses, readings)
-        u = jnp.asarray(params, jnp.float64).T  # (36, n)
+        u = jnp.asarray(params, jnp.float64).T  # (n_params, n)
         rot = rotation_matrix(poses[:, 3:])
         t = [[rot[:, a, b, None] for b in range(3)] for a in range(3)]  # (m, 1) each
         d = [poses[:, k, None] for k in range(3)]
+        if self.param_set == "54":  # each member's axes from its tilts, (n, 6, 3)
+            ref = jnp.broadcast_to(jnp.array([0.0, 0.0, 1.0]), (N_LEGS, 3)) if self.axes is None else self.axes
+            axes = _tilted(ref, u[42:54].T * MRAD)
+        else:
+            axes = None if self.is_paper_model else self.slider_axes
 
         def leg(i):
             upper = [u[3 * i + k] for k in range(3)]  # Ac_i, (n,) each
-            return leg_stroke(t, d, upper, [upper[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)])
+            e = [upper[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]
+            rod = u[36 + i] if self.param_set != "36" else None if self.lengths is None else self.lengths[i]
+            out = slider_leg(t, d, upper, e, None if axes is None else [axes[..., i, k] for k in range(3)],
+                             None if rod is None else rod - _length(e))
+            return out.strokes, out.margin
 
         return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
@@ -356,22 +364,66 @@ Geometry = PSSMechanism
 """The 6-PSS mechanism under its original name."""
 
 
-def leg_stroke(t, d, upper, e):
-    """Eq. 4 of one leg in the cancellation-free form of
-    :meth:`PSSMechanism.solve_inverse_kinematics`, on components that broadcast against each
-    other (rows of poses, a population, or scalars): ``t`` the rotation's entries ``t[a][b]``,
-    ``d`` the translation, ``upper`` the joint ``Ac_i`` and ``e = Ac_i + v0 − Bc_i`` (three
-    components each). Returns the stroke and the margin."""
-    # δ = T·Ac − Ac + d, the joint's displacement from the zero pose; γ = δ(2e + δ).
-    delta = [t[k][0] * upper[0] + t[k][1] * upper[1] + t[k][2] * upper[2] - upper[k] + d[k] for k in range(3)]
+class _Leg(NamedTuple):
+    """One 6-PSS leg's quantities, on whatever the inputs of :func:`slider_leg` broadcast to:
+    vectors as three components, scalars as one array."""
+
+    w: list[Array]  # T·Ac_i
+    ell: list[Array]  # the rod vector at zero stroke, ℓ = T·Ac_i + d + v0 − Bc_i = e + δ
+    growth: list[Array]  # γ = δ(2e + δ), δ = T·Ac_i − Ac_i + d
+    margin: Array  # the square-root argument (mm²)
+    root: Array  # sqrt(max(margin, 0))
+    strokes: Array
+
+
+def slider_leg(t, d, upper, e, axis=None, dlength=None) -> _Leg:
+    """The 6-PSS leg, written once: the inverse kinematics of one slider, on components that
+    broadcast against each other (poses by legs, rows of poses in the structure-of-arrays fast
+    path, poses by population members, or scalars).
+
+    ``t[a][b]``: the rotation's entries; ``d``: the translation; ``upper``: the joint ``Ac_i``;
+    ``e = Ac_i + v0 − Bc_i``: the rod at the zero pose (three components each). ``axis``: the
+    slider's unit axis ``n_i`` (three components), or ``None`` for the paper's vertical slider;
+    ``dlength``: how much longer the rod is than ``|e|`` (``None``: exactly ``|e|``, the paper's
+    rods), only with an ``axis``. Returns the stroke with its margin and the intermediates the
+    closed-form Jacobians reuse. Every caller derives from it:
+    :meth:`PSSMechanism.solve_inverse_kinematics` (arrays of poses by legs),
+    :meth:`PSSMechanism.population_squared_residuals` (poses by population members), the
+    structure-of-arrays fast path and the 6-PSS discrepancy model (per-pose rod lengths).
+
+    NOTE: cancellation-free. With ``δ = T·Ac − Ac + d``, ``ℓ = e + δ`` and
+    ``c = |ℓ|² − L² = δ·(2e + δ) − ΔL·(2|e| + ΔL)``, ``|ℓ − q·n| = L`` has the root
+    ``q = c / (n·ℓ + sqrt((n·ℓ)² − c))``: a stroke of a few mm keeps full relative precision
+    instead of being the difference of two ~200 mm numbers, and is exactly 0 at the zero pose.
+    For the paper's slider (``n = e_z``, ``ΔL = 0``, Wang et al. (2018) eq. 4) the margin is
+    formed as ``e_z² − γx − γy`` (``= L² − ℓx² − ℓy²``) without the ``ℓz² − γz`` of the general
+    form. Where ``n·ℓ + sqrt(margin) ≤ 0`` (the rod below the slider) the plain
+    ``n·ℓ − sqrt(margin)`` is returned.
+    """
+    w = [t[k][0] * upper[0] + t[k][1] * upper[1] + t[k][2] * upper[2] for k in range(3)]
+    delta = [w[k] - upper[k] + d[k] for k in range(3)]
     growth = [delta[k] * (2.0 * e[k] + delta[k]) for k in range(3)]
-    margin = e[2] * e[2] - growth[0] - growth[1]
+    ell = [e[k] + delta[k] for k in range(3)]
+    c = growth[0] + growth[1] + growth[2]
+    if axis is None:
+        if dlength is not None:
+            raise ValueError("slider_leg: a rod length change needs the slider axis (the paper's rods are |e|)")
+        nw = ell[2]
+        margin = e[2] * e[2] - growth[0] - growth[1]
+    else:
+        if dlength is not None:
+            c = c - dlength * (2.0 * _length(e) + dlength)
+        nw = axis[0] * ell[0] + axis[1] * ell[1] + axis[2] * ell[2]
+        margin = nw * nw - c
     root = jnp.sqrt(jnp.maximum(margin, 0.0))
-    lz = e[2] + delta[2]
-    denom = lz + root
+    denom = nw + root
     ok = denom > 0
-    # rationalised where ℓz + sqrt(m) > 0, as in solve_inverse_kinematics
-    return jnp.where(ok, (growth[0] + growth[1] + growth[2]) / jnp.where(ok, denom, 1.0), lz - root), margin
+    return _Leg(w, ell, growth, margin, root, jnp.where(ok, c / jnp.where(ok, denom, 1.0), nw - root))
+
+
+def _length(v: list[Array]) -> Array:
+    """``|v|`` of a vector given as three components."""
+    return jnp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 class _IKParts(NamedTuple):
@@ -379,85 +431,44 @@ class _IKParts(NamedTuple):
     w: Array  # T·Ac_i, (..., 6, 3)
     ell: Array  # rod vector at zero stroke, T·Ac_i + d + v0 − Bc_i, (..., 6, 3)
     growth: Array  # δ(2e + δ), (..., 6, 3)
+    axes: Array  # unit slider axes n_i, (..., 6, 3)
     margin: Array  # (..., 6)
     root: Array  # sqrt(max(margin, 0)), (..., 6)
     strokes: Array  # (..., 6)
 
 
-def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
-    """Eq. 4 of the paper's mechanism on arrays, with the intermediates its closed-form Jacobians
-    reuse.
-
-    NOTE: the same leg as :func:`leg_stroke` (the component form the population objective and the
-    batched fast path use), coded a second time: the rotation applied by ``einsum`` here and by
-    explicit multiply-adds there round differently (up to 2e-14 mm apart on 2 000 poses of the
-    actual geometry), and the calibrations, studies and published tables hinge on these exact
-    bits. Expressing one through the other would move every seeded result."""
-    rot = rotation_matrix(poses[..., 3:])
-    upper = geometry.upper
-    w = jnp.einsum("...jk,ik->...ij", rot, upper)
-    delta = w - upper + poses[..., None, :3]
-    e = upper + geometry.v0 - geometry.lower
-    growth = delta * (2.0 * e + delta)
-    margin = e[:, 2] ** 2 - growth[..., 0] - growth[..., 1]
-    root = jnp.sqrt(jnp.maximum(margin, 0.0))
-    ell = e + delta
-    denom = ell[..., 2] + root
-    rationalised = jnp.sum(growth, axis=-1) / jnp.where(denom > 0, denom, 1.0)
-    strokes = jnp.where(denom > 0, rationalised, ell[..., 2] - root)
-    return _IKParts(rot, w, ell, growth, margin, root, strokes)
-
-
-class _GeneralParts(NamedTuple):
-    rot: Array  # T, (..., 3, 3)
-    w: Array  # T·Ac_i, (..., 6, 3)
-    ell: Array  # rod vector at zero stroke, (..., 6, 3)
-    axes: Array  # unit slider axes n_i, broadcast to (..., 6, 3)
-    margin: Array  # (n·ℓ)² − c, (..., 6)
-    root: Array  # sqrt(max(margin, 0)), (..., 6)
-    strokes: Array  # (..., 6)
-
-
-def _general_ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _GeneralParts:
-    e = geometry.upper + geometry.v0 - geometry.lower
-    dl = None if geometry.lengths is None else geometry.lengths - jnp.linalg.norm(e, axis=-1)
-    return slider_leg(poses, geometry.upper, e, geometry.slider_axes, dl)
-
-
-def slider_leg(
+def slider_leg_arrays(
     poses: Float[Array, "... 6"],
     upper: Float[Array, "6 3"],
     e: Float[Array, "6 3"],
-    axes: Float[Array, "6 3"],
+    axes: Float[Array, "6 3"] | None = None,
     dlength: Float[Array, "... 6"] | None = None,
-) -> _GeneralParts:
-    """The generalised 6-PSS leg, the one function behind :meth:`PSSMechanism.solve_inverse_kinematics`
-    (axes or rod lengths given) and the 6-PSS discrepancy model: slider ``i`` moves along the unit
-    axis ``axes[i]`` and its rod is ``dlength`` longer than the zero-pose leg ``e_i = Ac_i + v0 − Bc_i``
-    (``None``: exactly ``|e_i|``; else any shape broadcasting against the readings ``(..., 6)``,
-    e.g. a per-pose change). Poses of any batch shape.
-
-    NOTE: with ``δ = T·Ac − Ac + d`` and ``w = e + δ``, ``|w − q·n| = |e| + ΔL`` has the root
-    ``q = c / (n·w + sqrt((n·w)² − c))``, ``c = δ·(2e + δ) − ΔL·(2|e| + ΔL)``: no cancellation,
-    exactly 0 at the zero pose, and Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``.
-    """
+) -> _IKParts:
+    """:func:`slider_leg` on arrays, poses (any batch shape) by the six legs, its vectors stacked
+    to ``(..., 6, 3)``; ``axes`` ``None`` is the paper's vertical slider."""
     rot = rotation_matrix(poses[..., 3:])
-    w = jnp.einsum("...jk,ik->...ij", rot, upper)
-    delta = w - upper + poses[..., None, :3]
-    c = jnp.sum(delta * (2.0 * e + delta), axis=-1)
-    if dlength is not None:
-        c = c - dlength * (2.0 * jnp.linalg.norm(e, axis=-1) + dlength)
-    ell = e + delta
-    nw = jnp.sum(axes * ell, axis=-1)
-    margin = nw**2 - c
-    root = jnp.sqrt(jnp.maximum(margin, 0.0))
-    denom = nw + root
-    strokes = jnp.where(denom > 0, c / jnp.where(denom > 0, denom, 1.0), nw - root)
-    return _GeneralParts(rot, w, ell, jnp.broadcast_to(axes, ell.shape), margin, root, strokes)
+    t = [[rot[..., a, b, None] for b in range(3)] for a in range(3)]  # (..., 1) each
+    d = [poses[..., k, None] for k in range(3)]
+    cols = lambda x: [x[..., k] for k in range(3)]  # noqa: E731
+    leg = slider_leg(t, d, cols(upper), cols(e), None if axes is None else cols(axes), dlength)
+    stack = lambda v: jnp.stack(jnp.broadcast_arrays(*v), axis=-1)  # noqa: E731
+    ell = stack(leg.ell)
+    n = jnp.array([0.0, 0.0, 1.0]) if axes is None else axes
+    return _IKParts(rot, stack(leg.w), ell, stack(leg.growth), jnp.broadcast_to(n, ell.shape), leg.margin, leg.root,
+                    leg.strokes)
+
+
+def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
+    """The mechanism's legs at ``poses``: the paper's eq. 4, or the general slider (axes, rod lengths)."""
+    e = geometry.upper + geometry.v0 - geometry.lower
+    if geometry.is_paper_model:
+        return slider_leg_arrays(poses, geometry.upper, e)
+    dl = None if geometry.lengths is None else geometry.lengths - _length([e[..., k] for k in range(3)])
+    return slider_leg_arrays(poses, geometry.upper, e, geometry.slider_axes, dl)
 
 
 def _general_ik_and_jacobian(geometry: PSSMechanism, poses: Float[Array, "... 6"]):
-    parts = _general_ik_parts(geometry, poses)
+    parts = _ik_parts(geometry, poses)
     n, ell, tp = parts.axes, parts.ell, parts.w
     nw = jnp.sum(n * ell, axis=-1, keepdims=True)
     h = jnp.where(parts.root > 0, parts.root, 1.0)[..., None]
@@ -496,7 +507,7 @@ def _tilted(n: Float[Array, "6 3"], tilt: Float[Array, "12"]) -> Float[Array, "6
 def _unit_axes(x: ArrayLike) -> Array:
     if isinstance(x, jax.core.Tracer):
         return x
-    a = _checked_numpy(x, "axes", (N_LEGS, 3))
+    a = field_numpy(x, "PSSMechanism", "axes", (N_LEGS, 3))
     norm = np.linalg.norm(a, axis=-1)
     if np.any(np.abs(norm - 1.0) > 1e-6):
         raise ValueError(f"6-PSS axes must be unit vectors (one per leg, in B), got norms {norm.round(9).tolist()}")
@@ -504,14 +515,7 @@ def _unit_axes(x: ArrayLike) -> Array:
 
 
 def _positive(x: ArrayLike, name: str) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x
-    a = _checked_numpy(x, name, (N_LEGS,))
-    if np.any(a <= 0):
-        bad = np.flatnonzero(a <= 0)
-        raise ValueError(f"6-PSS {name} must be positive (mm): leg(s) {(bad + 1).tolist()} have "
-                         f"{a[bad].tolist()} (all: {a.tolist()})")
-    return jnp.asarray(a)
+    return field_array(x, "PSSMechanism", name, (N_LEGS,), positive=True, unit="mm")
 
 
 def _default_param_set(d: dict[str, Any]) -> str:
@@ -538,22 +542,7 @@ def rod_lengths(geometry: PSSMechanism) -> Float[Array, "6"]:
 
 
 def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x  # traced (jit/vmap): validated where the concrete value was built
-    return jnp.asarray(_checked_numpy(x, name, shape))
-
-
-def _checked_numpy(x: ArrayLike, name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``x`` as float64 NumPy, its trailing shape and finiteness checked.
-
-    NOTE: checks stay in NumPy: under ``jit`` even ``jnp.asarray`` of a constant is staged
-    out as a tracer, which a NumPy conversion would then reject."""
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[-len(shape):] != shape:
-        raise ValueError(f"Geometry.{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"Geometry.{name} contains NaN or inf: {a.tolist()}")
-    return a
+    return field_array(x, "PSSMechanism", name, shape, unit="mm")
 
 
 # Wang et al. (2018), Table 1 (mm). Rows: rod 1..6.
@@ -598,7 +587,7 @@ _ACTUAL_LOWER = np.array(
     ]
 )
 
-@register_preset("nominal")
+@register_preset("nominal", measured="actual")
 def nominal_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
     """The nominal parameters ``u_0`` of Wang et al. (2018), Table 1."""
     return PSSMechanism(_NOMINAL_UPPER, _NOMINAL_LOWER, v0)

@@ -22,6 +22,7 @@ DEFAULT_FAMILY = "6-PSS"
 
 _FAMILIES: dict[str, type[AbstractMechanism]] = {}
 _PRESETS: dict[str, Callable[[], AbstractMechanism]] = {}
+_MEASURED: dict[str, str] = {}
 
 M = TypeVar("M", bound=type[AbstractMechanism])
 
@@ -42,13 +43,20 @@ def register_family(cls: M) -> M:
     return cls
 
 
-def register_preset(name: str) -> Callable[[Callable[[], AbstractMechanism]], Callable[[], AbstractMechanism]]:
-    """Decorator: ``factory()`` is the geometry named ``name`` (``--geometry NAME`` in the CLI)."""
+def register_preset(
+    name: str, *, measured: str | None = None
+) -> Callable[[Callable[[], AbstractMechanism]], Callable[[], AbstractMechanism]]:
+    """Decorator: ``factory()`` is the geometry named ``name`` (``--geometry NAME`` in the CLI).
+    ``measured``: the preset that is this design's measured, as-built geometry (Wang et al. (2018)
+    publish the nominal 6-PSS beside its "actual" one): the simulated true mechanism when no
+    other is given, instead of a random perturbation."""
 
     def deco(factory: Callable[[], AbstractMechanism]) -> Callable[[], AbstractMechanism]:
         if name in _PRESETS and _PRESETS[name] is not factory:
             raise ValueError(f"preset {name!r} is already registered")
         _PRESETS[name] = factory
+        if measured is not None:
+            _MEASURED[name] = measured
         return factory
 
     return deco
@@ -153,6 +161,11 @@ def families() -> tuple[str, ...]:
 def presets() -> tuple[str, ...]:
     """The registered preset names."""
     return tuple(_PRESETS)
+
+
+def measured_preset(name: str) -> str | None:
+    """The preset registered as the measured geometry of preset ``name``, or ``None``."""
+    return _MEASURED.get(name)
 
 
 def family(name: str) -> type[AbstractMechanism]:

@@ -45,7 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import field_array, valid_poses
+from .._checks import field_array, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, population_totals
 from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
@@ -113,18 +113,18 @@ class RUSMechanism(AbstractMechanism):
         if param_set not in PARAM_SETS:
             raise ValueError(f"6-RUS param_set must be one of {PARAM_SETS}, got {param_set!r}")
         name = type(self).__name__
-        self.base = field_array(base, name, "base", (N_LEGS, 3))
-        self.platform = field_array(platform, name, "platform", (N_LEGS, 3))
-        self.v0 = field_array(v0, name, "v0", (3,))
-        self.crank_lengths = field_array(crank_lengths, name, "crank_lengths", (N_LEGS,), positive=True)
-        self.rod_lengths = field_array(rod_lengths, name, "rod_lengths", (N_LEGS,), positive=True)
-        self.azimuth = field_array(azimuth, name, "azimuth", (N_LEGS,))
+        self.base = field_array(base, name, "base", (N_LEGS, 3), unit="mm")
+        self.platform = field_array(platform, name, "platform", (N_LEGS, 3), unit="mm")
+        self.v0 = field_array(v0, name, "v0", (3,), unit="mm")
+        self.crank_lengths = field_array(crank_lengths, name, "crank_lengths", (N_LEGS,), positive=True, unit="mm")
+        self.rod_lengths = field_array(rod_lengths, name, "rod_lengths", (N_LEGS,), positive=True, unit="mm")
+        self.azimuth = field_array(azimuth, name, "azimuth", (N_LEGS,), unit="rad")
         self.crank_limits = None if crank_limits is None else _limits(crank_limits)
         self.travel = None if travel is None else _travel(travel)
         self.param_set = param_set
         if crank_zero is None:  # the zero pose's crank angles: every reading 0 there
             crank_zero = self._crank_angles(jnp.zeros(6))[0]
-        self.crank_zero = field_array(crank_zero, name, "crank_zero", (N_LEGS,))
+        self.crank_zero = field_array(crank_zero, name, "crank_zero", (N_LEGS,), unit="rad")
 
     # ---- parameters -------------------------------------------------------------------------
 
@@ -301,12 +301,7 @@ def _limits(x: Any) -> tuple[float, float]:
 
 
 def _travel(x: Any) -> tuple[float, ...]:
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape != (6,) or not np.all(np.isfinite(a) & (a > 0)):
-        raise ValueError(f"RUSMechanism.travel must be six positive half-widths (mm, mm, mm, rad, rad, rad), got {x!r}")
-    if np.any(a[3:] > 0.5):
-        raise ValueError(f"RUSMechanism.travel angles are radians; {a[3:].tolist()} looks like degrees")
-    return tuple(float(v) for v in a)
+    return field_travel(x, "RUSMechanism", ("x", "y", "z"), ("rx", "ry", "rz"))
 
 
 # ---- presets ------------------------------------------------------------------------------------

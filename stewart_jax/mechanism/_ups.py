@@ -17,6 +17,11 @@ Frames and units as everywhere in the library: B fixed, A moving, pose ``P = [dx
 - Calibration parameters (42): ``platform`` (18), ``base`` (18), ``lengths0`` (6), each joint
   x, y, z, in that order. ``v0`` and the limits are not calibrated.
 
+The strut is written once, :func:`strut_leg`, on components that broadcast against each other:
+the inverse kinematics calls it on arrays (poses by struts), the population objective on
+structure-of-arrays columns (poses by population members), the discrepancy model through
+:meth:`UPSMechanism.solve_inverse_kinematics`.
+
 Limits (optional, static metadata of the mechanism, not calibrated, not traced):
 
 - ``stroke_limits``: ``[min, max]`` of the reading (mm) per strut.
@@ -39,6 +44,7 @@ at once may exceed a stroke limit.
 
 from __future__ import annotations
 
+import functools
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
@@ -47,7 +53,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import valid_poses
+from .._checks import field_array, field_numbers, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
@@ -112,7 +118,8 @@ class UPSMechanism(AbstractMechanism):
         self.platform = _as_float64(platform, "platform", (N_LEGS, 3))
         self.v0 = _as_float64(v0, "v0", (3,))
         if lengths0 is None:
-            lengths0 = _norm(self.platform + self.v0 - self.base)
+            e = self.platform + self.v0 - self.base
+            lengths0 = _length([e[..., k] for k in range(3)])  # as strut_leg's |e|: 0 at the zero pose
         self.lengths0 = _as_float64(lengths0, "lengths0", (N_LEGS,))
         self.stroke_limits = _stroke_limits(stroke_limits)
         self.joint_angle_limit = _angle_limit(joint_angle_limit)
@@ -182,17 +189,14 @@ class UPSMechanism(AbstractMechanism):
         """Readings ``q_i = l_i − lengths0_i`` (mm), the margin (mm) and reachability; pure and
         jittable, any leading batch shape of ``poses``.
 
-        NOTE: the reading is evaluated cancellation-free. With ``e_i = platform_i + v0 − base_i``
-        the zero-pose strut and ``δ_i = (T − I)·platform_i + d`` the moving joint's displacement
-        (``T − I`` built with ``1 − cos x = 2 sin²(x/2)`` on its diagonal), the strut is
-        ``s = e + δ`` and ``l² − |e|² = δ·(2e + δ)``, so
-        ``q = δ·(2e + δ) / (l + |e|) + (|e| − lengths0)``. A reading of a few mm on a 1–3 m strut
-        then keeps full relative precision instead of being the difference of two metre-scale
-        numbers, and is exactly 0 at the zero pose when ``lengths0`` is the default.
+        The strut :func:`strut_leg` on poses by struts: with ``e_i = platform_i + v0 − base_i`` the
+        zero-pose strut and ``δ_i = (T − I)·platform_i + d`` the moving joint's displacement
+        (``T − I`` built with ``1 − cos x = 2 sin²(x/2)`` on its diagonal),
+        ``q = δ·(2e + δ) / (l + |e|) + (|e| − lengths0)``, cancellation-free and exactly 0 at the
+        zero pose when ``lengths0`` is the default.
         """
         parts = _ik_parts(self, poses)
-        margin = _margin(self, poses, parts)
-        return IKSolution(parts.strokes, margin, jnp.all(margin >= 0.0, axis=-1) & valid_poses(poses))
+        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
         """Readings, margins (``(..., 6)``) and the analytic pose Jacobian ``∂q_i/∂P_k``
@@ -200,7 +204,6 @@ class UPSMechanism(AbstractMechanism):
         ``u_i`` the unit strut vector and ``∂(T·p)/∂φ = T·(e_x × p)``,
         ``∂(T·p)/∂θ = (Rz(ψ)·e_y) × T·p``, ``∂(T·p)/∂ψ = e_z × T·p``."""
         parts = _ik_parts(self, poses)
-        margin = _margin(self, poses, parts)
         u = parts.unit
         tp = parts.tp
         ex_p = jnp.stack(
@@ -220,7 +223,7 @@ class UPSMechanism(AbstractMechanism):
             ],
             axis=-1,
         )
-        return parts.strokes, margin, jac
+        return parts.strokes, parts.margin, jac
 
     def population_squared_residuals(
         self, params: Float[Array, "n 42"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
@@ -228,45 +231,21 @@ class UPSMechanism(AbstractMechanism):
         """``Σ (readings − q(poses; u))²`` and reachability (stroke limits, joint angles) for
         every row ``u`` of ``params``, in structure-of-arrays form: every quantity an ``(m, n)``
         array, the population innermost (see
-        :meth:`~stewart_jax.mechanism.PSSMechanism.population_squared_residuals`); the same
-        cancellation-free strut length as :meth:`solve_inverse_kinematics`.
-
-        NOTE: the strut is coded here on components and in ``_ik_parts`` on arrays: the two round
-        the rotation differently (``einsum`` against explicit multiply-adds; the costs agree to
-        ~1e-14 relative), and the seeded population optimisers' results hinge on these exact
-        bits, so neither is expressed through the other (the 6-RUS, written after, has one
-        component-form leg for both)."""
+        :meth:`~stewart_jax.mechanism.PSSMechanism.population_squared_residuals`): the strut
+        :func:`strut_leg` on ``(m, n)`` arrays.
+        """
         u = jnp.asarray(params, jnp.float64).T  # (42, n)
         angles = poses[:, 3:]
-        t = rotation_matrix(angles)
-        tm1 = _rotation_minus_identity(angles)
-        t = [[t[:, a, b, None] for b in range(3)] for a in range(3)]  # (m, 1) each
-        tm1 = [[tm1[:, a, b, None] for b in range(3)] for a in range(3)]
+        t, tm1 = _entries(rotation_matrix(angles)), _entries(_rotation_minus_identity(angles))  # (m, 1) each
         d = [poses[:, k, None] for k in range(3)]
         limits = None if self.stroke_limits is None else np.asarray(self.stroke_limits)
 
         def leg(i):
             p = [u[3 * i + k] for k in range(3)]  # platform_i, (n,) each
             e = [p[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]  # zero-pose strut
-            e_len = jnp.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-            delta = [tm1[k][0] * p[0] + tm1[k][1] * p[1] + tm1[k][2] * p[2] + d[k] for k in range(3)]
-            strut = [e[k] + delta[k] for k in range(3)]
-            length = jnp.sqrt(strut[0] * strut[0] + strut[1] * strut[1] + strut[2] * strut[2])
-            growth = sum(delta[k] * (2.0 * e[k] + delta[k]) for k in range(3))
-            denom = length + e_len
-            ok = denom > 0
-            q = jnp.where(ok, growth / jnp.where(ok, denom, 1.0), length - e_len) + (e_len - u[36 + i])
-            margins = []  # as _margin: the strut's length where nothing limits it
-            if limits is not None:
-                margins += [q - limits[i, 0], limits[i, 1] - q]
-            if self.joint_angle_limit is not None:
-                s_in_a = [t[0][j] * strut[0] + t[1][j] * strut[1] + t[2][j] * strut[2] for j in range(3)]
-                theta = jnp.maximum(_angle_soa(strut, e), _angle_soa(s_in_a, e))
-                margins.append(length * (self.joint_angle_limit[i] - theta))
-            margin = margins[0] if margins else length
-            for x in margins[1:]:
-                margin = jnp.minimum(margin, x)
-            return q, margin
+            out = strut_leg(t, tm1, d, p, e, u[36 + i], None if limits is None else limits[i],
+                            None if self.joint_angle_limit is None else self.joint_angle_limit[i])
+            return out.strokes, out.margin
 
         return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
@@ -352,6 +331,57 @@ class UPSMechanism(AbstractMechanism):
         return m
 
 
+class _Strut(NamedTuple):
+    """One strut's quantities, on whatever the inputs of :func:`strut_leg` broadcast to: vectors
+    as three components, scalars as one array."""
+
+    tp: list[Array]  # T·platform_i
+    strut: list[Array]  # s = T·platform_i + d + v0 − base_i
+    length: Array  # l = |s| (mm)
+    strokes: Array  # q = l − lengths0_i (mm)
+    margin: Array  # mm
+
+
+def strut_leg(t, tm1, d, platform, e, lengths0, stroke_limits=None, angle_limit=None) -> _Strut:
+    """The 6-UPS strut, written once: its reading and margin on components that broadcast
+    against each other (poses by struts, or poses by population members).
+
+    ``t[a][b]`` and ``tm1[a][b]``: the entries of ``T`` and of ``T − I`` (its diagonal from
+    versines, :func:`_rotation_minus_identity`); ``d``: the translation; ``platform``: the joint
+    ``platform_i``; ``e = platform_i + v0 − base_i``: the strut at the zero pose (three components
+    each); ``lengths0``: the length at zero reading (mm). ``stroke_limits``: ``None`` or the
+    reading's ``(min, max)`` (mm); ``angle_limit``: ``None`` or the largest joint angle (rad).
+    Every caller derives from it: :meth:`UPSMechanism.solve_inverse_kinematics` (arrays of poses
+    by struts), :meth:`UPSMechanism.population_squared_residuals` (poses by population members)
+    and, through the mechanism, the 6-UPS discrepancy model.
+
+    NOTE: the reading is evaluated cancellation-free. With ``δ = (T − I)·platform + d`` the
+    moving joint's displacement the strut is ``s = e + δ`` and ``l² − |e|² = δ·(2e + δ)``, so
+    ``q = δ·(2e + δ) / (l + |e|) + (|e| − lengths0)``: a reading of a few mm on a 1–3 m strut
+    keeps full relative precision instead of being the difference of two metre-scale numbers,
+    and is exactly 0 at the zero pose when ``lengths0`` is the default ``|e|``.
+    """
+    tp = [t[k][0] * platform[0] + t[k][1] * platform[1] + t[k][2] * platform[2] for k in range(3)]
+    delta = [tm1[k][0] * platform[0] + tm1[k][1] * platform[1] + tm1[k][2] * platform[2] + d[k] for k in range(3)]
+    e_len = _length(e)
+    strut = [e[k] + delta[k] for k in range(3)]
+    length = _length(strut)
+    growth = [delta[k] * (2.0 * e[k] + delta[k]) for k in range(3)]
+    rise = growth[0] + growth[1] + growth[2]  # l² − |e|²
+    denom = length + e_len
+    ok = denom > 0
+    q = jnp.where(ok, rise / jnp.where(ok, denom, 1.0), length - e_len) + (e_len - lengths0)
+    margins = []  # the strut's length where nothing limits it
+    if stroke_limits is not None:
+        margins += [q - stroke_limits[0], stroke_limits[1] - q]
+    if angle_limit is not None:  # at the base end in B, at the platform end in A (Tᵀ·s)
+        s_in_a = [t[0][j] * strut[0] + t[1][j] * strut[1] + t[2][j] * strut[2] for j in range(3)]
+        theta = jnp.maximum(_angle(strut, e), _angle(s_in_a, e))
+        margins.append(length * (angle_limit - theta))
+    margin = length if not margins else functools.reduce(jnp.minimum, margins)
+    return _Strut(tp, strut, length, q, margin)
+
+
 class _IKParts(NamedTuple):
     rot: Array  # T, (..., 3, 3)
     tp: Array  # T·platform_i, (..., 6, 3)
@@ -359,6 +389,7 @@ class _IKParts(NamedTuple):
     length: Array  # |s|, (..., 6)
     unit: Array  # s/|s|, (..., 6, 3)
     strokes: Array  # (..., 6)
+    margin: Array  # (..., 6)
 
 
 def _rotation_minus_identity(angles: Array) -> Array:
@@ -375,80 +406,46 @@ def _rotation_minus_identity(angles: Array) -> Array:
     return rot * (1.0 - eye) + diag[..., None] * eye
 
 
+def _entries(r: Array) -> list[list[Array]]:
+    """The entries ``r[a][b]`` of a batch of 3×3 matrices, each with a trailing axis of 1."""
+    return [[r[..., a, b, None] for b in range(3)] for a in range(3)]
+
+
 def _ik_parts(m: UPSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
-    rot = rotation_matrix(poses[..., 3:])
-    rm1 = _rotation_minus_identity(poses[..., 3:])
-    p = m.platform
-    tp = jnp.einsum("...jk,ik->...ij", rot, p)
-    delta = jnp.einsum("...jk,ik->...ij", rm1, p) + poses[..., None, :3]
-    e = p + m.v0 - m.base
-    e_len = _norm(e)
-    strut = e + delta
-    length = _norm(strut)
-    growth = jnp.sum(delta * (2.0 * e + delta), axis=-1)  # l² − |e|²
-    denom = length + e_len
-    strokes = jnp.where(denom > 0, growth / jnp.where(denom > 0, denom, 1.0), length - e_len) + (e_len - m.lengths0)
-    safe = jnp.where(length > 0, length, 1.0)
-    unit = strut / safe[..., None]
-    return _IKParts(rot, tp, strut, length, unit, strokes)
+    """:func:`strut_leg` on arrays, poses (any batch shape) by the six struts, its vectors stacked."""
+    angles = poses[..., 3:]
+    rot = rotation_matrix(angles)
+    cols = lambda x: [x[..., k] for k in range(3)]  # noqa: E731
+    limits = None if m.stroke_limits is None else np.asarray(m.stroke_limits).T  # (min, max) per strut
+    angle = None if m.joint_angle_limit is None else np.asarray(m.joint_angle_limit)
+    leg = strut_leg(_entries(rot), _entries(_rotation_minus_identity(angles)), [poses[..., k, None] for k in range(3)],
+                    cols(m.platform), cols(m.platform + m.v0 - m.base), m.lengths0, limits, angle)
+    stack = lambda v: jnp.stack(jnp.broadcast_arrays(*v), axis=-1)  # noqa: E731
+    strut = stack(leg.strut)
+    safe = jnp.where(leg.length > 0, leg.length, 1.0)
+    return _IKParts(rot, stack(leg.tp), strut, leg.length, strut / safe[..., None], leg.strokes, leg.margin)
 
 
-def _margin(m: UPSMechanism, poses: Float[Array, "... 6"], parts: _IKParts) -> Array:
-    margins = []
-    if m.stroke_limits is not None:
-        lim = jnp.asarray(m.stroke_limits)
-        margins += [parts.strokes - lim[:, 0], lim[:, 1] - parts.strokes]
-    if m.joint_angle_limit is not None:
-        e = m.platform + m.v0 - m.base  # zero-pose strut direction, in B and in A
-        s_in_a = jnp.einsum("...kj,...ik->...ij", parts.rot, parts.strut)  # Tᵀ·s
-        theta = jnp.maximum(_angle(parts.strut, e), _angle(s_in_a, e))
-        margins.append(parts.length * (jnp.asarray(m.joint_angle_limit) - theta))
-    if not margins:
-        return parts.length
-    out = margins[0]
-    for x in margins[1:]:
-        out = jnp.minimum(out, x)
-    return out
+def _angle(a: list[Array], b: list[Array]) -> Array:
+    """Angle between vectors given as three components (rad), accurate near 0: ``atan2(|a × b|, a·b)``."""
+    cross = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    return jnp.arctan2(_length(cross), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
 
 
-def _angle(a: Array, b: Array) -> Array:
-    """Angle between vectors (rad), accurate near 0: ``atan2(|a × b|, a·b)``."""
-    b = jnp.broadcast_to(b, a.shape)
-    return jnp.arctan2(_norm(jnp.cross(a, b)), jnp.sum(a * b, axis=-1))
-
-
-def _angle_soa(a: list[Array], b: list[Array]) -> Array:
-    """:func:`_angle` of vectors given as three arrays of components."""
-    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-    return jnp.arctan2(jnp.sqrt(sum(c * c for c in cross)), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-
-
-def _norm(x: Array) -> Array:
-    return jnp.sqrt(jnp.sum(x * x, axis=-1))
+def _length(v: list[Array]) -> Array:
+    """``|v|`` of a vector given as three components."""
+    return jnp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 # ---- validation -------------------------------------------------------------------------------
 
 
 def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
-    if isinstance(x, jax.core.Tracer):
-        return x  # traced (jit/vmap): validated where the concrete value was built
-    a = np.asarray(x, dtype=np.float64)
-    if a.shape[a.ndim - len(shape):] != shape:
-        raise ValueError(f"UPSMechanism.{name} must have shape {shape} (mm), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
-    return jnp.asarray(a)
+    return field_array(x, "UPSMechanism", name, shape, unit="mm")
 
 
 def _finite(x: Any, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"UPSMechanism.{name} must be numbers, got {x!r}") from None
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"UPSMechanism.{name} contains NaN or inf: {a.tolist()}")
-    return a
+    return field_numbers(x, "UPSMechanism", name)
 
 
 def _stroke_limits(x: Any) -> tuple[tuple[float, float], ...] | None:
@@ -481,16 +478,7 @@ def _angle_limit(x: Any) -> tuple[float, ...] | None:
 
 
 def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
-    if x is None:
-        return None
-    a = _finite(x, "travel")
-    if a.shape != (5,) or not np.all(a > 0):
-        raise ValueError(
-            f"UPSMechanism.travel must be five positive numbers (x, y, z in mm, tilt, rz in rad), got {a.tolist()}"
-        )
-    if a[3] > 0.5 or a[4] > 0.5:
-        raise ValueError(f"UPSMechanism.travel angles are radians; {a[3:].tolist()} looks like degrees")
-    return tuple(float(v) for v in a)  # type: ignore[return-value]
+    return None if x is None else field_travel(x, "UPSMechanism", ("x", "y", "z"), ("tilt", "rz"))  # type: ignore[return-value]
 
 
 # ---- geometry-file checks -----------------------------------------------------------------------

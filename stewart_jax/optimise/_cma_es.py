@@ -1,5 +1,5 @@
 """CMA-ES: the covariance matrix adaptation evolution strategy, (μ/μ_W, λ) with rank-one,
-rank-μ and active (negative-weight) covariance updates; IPOP restarts as an option.
+rank-μ and active (negative-weight) covariance updates; IPOP and BIPOP restarts as options.
 
 Hansen N., "The CMA Evolution Strategy: A Tutorial", arXiv:1604.00772 (2016; revised 2023), the
 algorithm summary of its Appendix A with the default parameters of its Table 1 and, where the
@@ -35,6 +35,19 @@ go on (condition number above ``1e14``) or a step of ``0.2σ`` along a coordinat
 the mean (status ``stalled``). With ``restarts="ipop"`` (Auger A., Hansen N., "A restart CMA
 evolution strategy with increasing population size", CEC 2005) the run restarts after any of these
 with the population doubled, from a fresh uniform sample, until the budget or the target.
+With ``restarts="bipop"`` (Hansen N., "Benchmarking a BI-population CMA-ES on the BBOB-2009
+function testbed", GECCO 2009 workshops, as pycma's ``fmin(..., bipop=True)`` implements it) the
+large-population runs of IPOP alternate with small-population runs: after the ``k``-th large run
+(population ``λ₀·2^k``), runs of population ``λ₀·(2^k)^{u²}`` and initial step size
+``σ₀·0.01^v`` (``u, v`` uniform in [0, 1)), each within half the evaluations the large runs have
+used, start as long as the small runs' evaluations stay below the large runs'; the first run
+counts as small, and ``max_restarts`` counts the large runs only.
+
+NOTE: population sizes are array shapes, fixed when the run is compiled, while BIPOP's choice of
+the next run depends on evaluations counted at run time. So the runs are a ``lax.while_loop``
+over a ``lax.switch`` between the population levels ``λ₀·2^j`` (each compiled once, however
+many runs use it), and a small run's population is rounded to the nearest level in log scale,
+``λ₀·2^j`` with ``j = round(k·u²)``, where pycma draws it from the integers in between.
 
 NOTE: the search runs in box-normalised coordinates ``(x − lower)/(upper − lower)`` (so that
 ``σ`` is a fraction of Ω's width on every axis), and Ω is kept, by default
@@ -66,7 +79,15 @@ import numpy as np
 from jax import lax
 from jaxtyping import Array, Float, Int
 
-from ._driver import AbstractPopulationSolver, _check, draw, evaluate, init_population, target_reached
+from ._driver import (
+    AbstractPopulationSolver,
+    RestartSchedule,
+    _check,
+    draw,
+    evaluate,
+    init_population,
+    target_reached,
+)
 from ._result import RESULTS
 
 
@@ -163,8 +184,9 @@ class CMAES(AbstractPopulationSolver):
     - ``tolx``: stop when ``σ·max(√diag C, |p_c|)`` (a fraction of Ω's width) is below it; 1e-12.
     - ``tolfun``: stop when the recent best values and the current generation's values all lie
       within it (absolute, in the objective's unit; pycma's default); 1e-11. ``0`` disables.
-    - ``restarts``: ``"none"`` or ``"ipop"`` (restart on any stop but the target, the population
-      doubled each time, at most ``max_restarts`` times; the budget is shared).
+    - ``restarts``: ``"none"``, ``"ipop"`` (restart on any stop but the target, the population
+      doubled each time, at most ``max_restarts`` times; the budget is shared) or ``"bipop"``
+      (IPOP's runs interleaved with small-population runs; see the module's docstring).
     - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
     Evaluations: ``n_nests`` (or 1) at init; ``λ`` per generation.
@@ -178,7 +200,7 @@ class CMAES(AbstractPopulationSolver):
     penalty: float = 1.0
     tolx: float = 1e-12
     tolfun: float = 1e-11
-    restarts: Literal["none", "ipop"] = "none"
+    restarts: Literal["none", "ipop", "bipop"] = "none"
     max_restarts: int = 9
     target: float | None = None
     stall_generations: int = 100
@@ -195,26 +217,28 @@ class CMAES(AbstractPopulationSolver):
             raise ValueError(f"CMAES.boundary must be 'transform' or 'penalty', got {self.boundary!r}")
         if self.start not in ("sample", "y0"):
             raise ValueError(f"CMAES.start must be 'sample' or 'y0', got {self.start!r}")
-        if self.restarts not in ("none", "ipop"):
-            raise ValueError(f"CMAES.restarts must be 'none' or 'ipop', got {self.restarts!r}")
+        if self.restarts not in ("none", "ipop", "bipop"):
+            raise ValueError(f"CMAES.restarts must be 'none', 'ipop' or 'bipop', got {self.restarts!r}")
         _check(self, "max_restarts", self.max_restarts >= 0, ">= 0")
 
     def _lambda(self, n_dim: int) -> int:
         return default_population_size(n_dim) if self.population_size is None else int(self.population_size)
 
-    def restart_schedule(self, n_dim: int, max_evaluations: int) -> list[CMAES]:
-        """The solvers of the successive runs (one run without restarts): IPOP doubles λ, as long
-        as one generation of the next run fits the budget."""
+    def restart_schedule(self, n_dim: int, max_evaluations: int) -> RestartSchedule | None:
+        """The runs of IPOP or BIPOP (``None`` without restarts): the first run as configured,
+        then population levels ``λ₀·2^j`` for ``j ≤ max_restarts`` as long as a sample and
+        one generation of the level fit the budget, each started from a fresh sample."""
         if self.restarts == "none":
-            return [self]
-        lam, runs = self._lambda(n_dim), []
-        for k in range(self.max_restarts + 1):
-            lam_k = lam * 2**k
-            if k and self.init_evaluations(n_dim) + lam_k > max_evaluations:
+            return None
+        lam0 = self._lambda(n_dim)
+        base = dataclasses.replace(self, restarts="none", population_size=lam0)
+        levels = [dataclasses.replace(base, start="sample")]
+        for k in range(1, self.max_restarts + 1):
+            level = dataclasses.replace(base, population_size=lam0 * 2**k, start="sample")
+            if level.init_evaluations(n_dim) + level.step_evaluations(n_dim)[1] > max_evaluations:
                 break
-            runs.append(dataclasses.replace(self, population_size=lam_k, restarts="none",
-                                            start=self.start if k == 0 else "sample"))
-        return runs
+            levels.append(level)
+        return RestartSchedule(base, tuple(levels), self.restarts == "bipop")
 
     def init(self, fn, y0, lower, upper, key):
         n = lower.shape[-1]

@@ -7,7 +7,9 @@ length is fixed by the evaluation budget, so that a batch of trials compiles onc
 has terminated (its solver's ``terminate`` holds: the caller's ``target`` reached, or the
 solver's own convergence test) or the next step could overrun the budget, its state is frozen
 (``lax.cond``; under ``vmap`` JAX evaluates both branches and selects, so a frozen trial still
-costs time but its state, history and evaluation count stay put).
+costs time but its state, history and evaluation count stay put). A solver with a
+``restart_schedule`` (CMA-ES's IPOP and BIPOP) runs instead as a ``lax.while_loop`` over runs,
+each a ``lax.while_loop`` over generations, within the one budget (:class:`RestartSchedule`).
 
 Stopping is generic: no objective value ends a run unless the caller asks for it with a
 ``target`` (any real number, negative included). A run ends on its budget, or on a convergence
@@ -364,58 +366,178 @@ def check_scalar_objective(fn, x: Array) -> None:
         raise ValueError(f"the objective must return a real number, got dtype {dtype}")
 
 
+class RestartSchedule(NamedTuple):
+    """The runs of a restart strategy (CMA-ES's IPOP and BIPOP), as :func:`minimise` runs them.
+
+    - ``first``: the solver of the first run (the caller's start, ``y0`` or a sample).
+    - ``levels``: the solvers of the later runs, ``levels[j]`` with the population ``λ₀·2^j``;
+      each run starts from a fresh sample, and each has a ``sigma0`` (its initial step size,
+      scaled per run for BIPOP's small runs).
+    - ``bipop``: ``False``: IPOP, run ``k`` after the first on level ``k`` (Auger & Hansen 2005);
+      ``True``: BIPOP, those runs interleaved with small-population runs (Hansen 2009).
+    """
+
+    first: AbstractSolver
+    levels: tuple[AbstractSolver, ...]
+    bipop: bool
+
+
+class RestartState(NamedTuple):
+    """The final state of a run with restarts (``minimise(..., return_state=True)``).
+
+    - ``levels``: the state of the last run of each population level (zeros for a level on which
+      no run started; ``levels[0]`` holds the first run unless a later one used that level).
+    - ``n_runs``: runs made; ``n_large``: large-population runs after the first.
+    - ``evaluations_small``, ``evaluations_large``: objective calls of BIPOP's two regimes (the
+      first run counts as small; with IPOP every run counts as large).
+    """
+
+    levels: tuple
+    n_runs: Int[Array, ""]
+    n_large: Int[Array, ""]
+    evaluations_small: Int[Array, ""]
+    evaluations_large: Int[Array, ""]
+
+
 def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
-    """One run, or, for a solver with a ``restart_schedule`` (CMA-ES's IPOP), its successive runs
-    sharing the budget: a run starts only where the previous ones left budget for its
-    initialisation and one step and did not reach the target."""
+    """One run, or, for a solver with a ``restart_schedule`` (CMA-ES's IPOP and BIPOP), its
+    successive runs sharing the budget (:func:`_restarts`)."""
     n_dim = lower.shape[-1]
     schedule = getattr(solver, "restart_schedule", None)
-    runs = [solver] if schedule is None else schedule(n_dim, max_evaluations)
-    fixed = runs[0].min_evaluations(n_dim)
+    plan = None if schedule is None else schedule(n_dim, max_evaluations)
+    first = solver if plan is None else plan.first
+    fixed = first.min_evaluations(n_dim)
     if fixed > max_evaluations:
         raise ValueError(f"max_evaluations={max_evaluations} is below the {fixed} calls that "
                          "initialisation alone needs")
-    if len(runs) == 1:
-        return _run(fn, runs[0], lower, upper, y0, key, max_evaluations, jnp.asarray(0, jnp.int32),
-                    jnp.asarray(False))
-    # NOTE: each run is its own scan (its population size is static); under vmap a skipped run
-    # still costs its steps (both branches of lax.cond are evaluated), under jit alone it does not.
-    used = jnp.asarray(0, jnp.int32)
-    done = jnp.asarray(False)
-    results = []
-    for k, run_solver in zip(jax.random.split(key, len(runs)), runs, strict=True):
-        need = run_solver.init_evaluations(n_dim) + run_solver.step_evaluations(n_dim)[1]
-        skip = done | (used + need > max_evaluations)
-        r, state = _run(fn, run_solver, lower, upper, y0, k, max_evaluations, used, skip)
-        results.append(r)
-        used = used + r.n_evaluations
-        done = done | (r.status == RESULTS.target_reached)
-    return _combine_runs(results), state
+    if plan is None:
+        return _run(fn, solver, lower, upper, y0, key, max_evaluations)
+    return _restarts(fn, plan, lower, upper, y0, key, max_evaluations)
 
 
-def _combine_runs(results: list[OptimiseResult]) -> OptimiseResult:
-    """The result of successive runs: the best point of all; evaluations added up; the
-    histories concatenated (cumulative evaluations, best so far); the status of the last run
-    that ran (the target wherever it was reached)."""
-    costs = jnp.stack([r.cost for r in results])
-    i = jnp.argmin(jnp.where(jnp.isnan(costs), jnp.inf, costs))
-    params = jnp.stack([r.params for r in results])[i]
-    offsets = jnp.cumsum(jnp.stack([r.n_evaluations for r in results])) - jnp.stack(
-        [r.n_evaluations for r in results])
-    hist_n = jnp.concatenate([r.history_evaluations + o for r, o in zip(results, offsets, strict=True)])
-    hist_f = lax.cummin(jnp.concatenate([r.history_cost for r in results]))
-    status = results[0].status
-    for r in results[1:]:
-        status = RESULTS.where(r.n_evaluations > 0, r.status, status)
-    reached = jnp.any(jnp.stack([r.status == RESULTS.target_reached for r in results]))
-    status = RESULTS.where(reached, RESULTS.target_reached, status)
-    return OptimiseResult(params, costs[i], jnp.sum(jnp.stack([r.n_evaluations for r in results])), status,
-                          hist_f, hist_n.astype(jnp.int32))
+def _restarts(fn, plan: RestartSchedule, lower, upper, y0, key, max_evaluations: int):
+    """The runs of ``plan`` within one budget, until the target or until no further run fits.
+
+    After the first run, each run is either *large* — the next level, ``λ₀·2^k`` for the
+    ``k``-th, started while a level is left whose initialisation and one generation fit the
+    budget — or, with BIPOP, *small*: started while the small runs (the first included) have
+    used fewer calls than the large ones, with at most half the large runs' calls, the
+    population ``λ₀·(2^k)^{u²}`` rounded to the nearest level in log scale and the initial step
+    size ``σ₀·0.01^v`` (``u, v`` uniform in [0, 1), ``k`` the large runs so far; Hansen 2009, as
+    pycma's ``fmin(..., bipop=True)``). A run ends on its solver's ``terminate`` or on its
+    share of the budget. The best point of all runs is reported; the evaluations add up; the
+    history has one entry per generation of any run (best so far, cumulative calls), the
+    entries after the last generation repeating the final values; the status is the target
+    wherever it was reached, otherwise the last run's (its budget running out: ``stalled`` or
+    ``max_steps_reached`` by the history's stall test).
+
+    NOTE: population sizes are array shapes, so a run is a ``lax.switch`` over the levels
+    inside a ``lax.while_loop`` over runs: each level is compiled once, however many runs use
+    it, and under ``jit`` a run costs only its own generations (a ``lax.while_loop``). Under
+    ``vmap`` the switch evaluates every level for every run of the batch's longest sequence.
+    """
+    n_dim = lower.shape[-1]
+    fn = nan_to_inf(fn)
+    levels = plan.levels
+    n_levels = len(levels)
+    lam0 = plan.first.step_evaluations(n_dim)[1]
+    n_hist = max(1, int(max_evaluations) // lam0)  # no generation makes fewer than λ₀ calls
+    need = jnp.asarray([s.init_evaluations(n_dim) + s.step_evaluations(n_dim)[1] + s.final_evaluations(n_dim)
+                        for s in levels], jnp.int32)
+    int0 = jnp.asarray(0, jnp.int32)
+
+    def one_run(solver, key, allowance, states, j, hist):
+        """A run of ``solver`` within ``allowance`` calls; its state replaces ``states[j]``."""
+        hist_f, hist_n, pos, used, best_before = hist
+        per_step = solver.step_evaluations(n_dim)[1] + solver.final_evaluations(n_dim)
+        k_init, k_steps = jax.random.split(key)
+        state = solver.init(fn, y0, lower, upper, k_init)
+
+        def going(c):
+            st, _, _, p = c
+            return ~solver.terminate(st)[0] & (st.n_evals + per_step <= allowance) & (p < n_hist)
+
+        def generation(c):
+            st, hf, hn, p = c
+            st = solver.step(fn, st, lower, upper, jax.random.fold_in(k_steps, p))
+            hf = hf.at[p].set(jnp.minimum(best_before, st.best_f))
+            hn = hn.at[p].set(used + jnp.asarray(st.n_evals, jnp.int32))
+            return st, hf, hn, p + 1
+
+        state, hist_f, hist_n, pos = lax.while_loop(going, generation, (state, hist_f, hist_n, pos))
+        state = solver.postprocess(fn, state, lower, upper)
+        done, why = solver.terminate(state)
+        status = RESULTS.where(done, why, RESULTS.max_steps_reached)
+        states = states[:j] + (state,) + states[j + 1:]
+        return states, (state.best_x, state.best_f, jnp.asarray(state.n_evals, jnp.int32), status,
+                        hist_f, hist_n, pos)
+
+    def blank(s):
+        shapes = jax.eval_shape(lambda: s.init(fn, y0, lower, upper, key))
+        return jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), shapes)
+
+    states = tuple(blank(s) for s in levels)
+    hist = (jnp.full(n_hist, jnp.inf), jnp.zeros(n_hist, jnp.int32), int0, int0, jnp.asarray(jnp.inf))
+    states, (best_x, best_f, used, status, hist_f, hist_n, pos) = one_run(
+        plan.first, jax.random.fold_in(key, 0), max_evaluations, states, 0, hist)
+    small, large = (used, int0) if plan.bipop else (int0, used)
+
+    def more(c):
+        return ~c["done"] & ~c["stop"]
+
+    def next_run(c):
+        remaining = max_evaluations - c["used"]
+        k_run, k_uv = jax.random.split(jax.random.fold_in(key, c["n_runs"]))
+        u, v = jax.random.uniform(k_uv, (2,), jnp.float64)
+        j_small = jnp.clip(jnp.floor(c["n_large"] * u * u + 0.5).astype(jnp.int32), 0, n_levels - 1)
+        allow_small = jnp.minimum(remaining, c["large"] // 2)
+        go_small = plan.bipop & (c["small"] < jnp.maximum(1, c["large"])) & (need[j_small] <= allow_small)
+        j_large = c["n_large"] + 1
+        j_large_c = jnp.minimum(j_large, n_levels - 1)
+        go_large = (j_large < n_levels) & (need[j_large_c] <= remaining)
+        j = jnp.where(go_small, j_small, j_large_c)
+        allowance = jnp.where(go_small, allow_small, remaining)
+        factor = jnp.where(go_small, 0.01**v, 1.0)
+
+        def run(c):
+            def branch(i):
+                def go(states, hist):
+                    s = levels[i]
+                    s = dataclasses.replace(s, sigma0=s.sigma0 * factor)
+                    return one_run(s, k_run, allowance, states, i, hist)
+                return go
+
+            hist = (c["hist_f"], c["hist_n"], c["pos"], c["used"], c["best_f"])
+            states, (bx, bf, n, st, hf, hn, p) = lax.switch(j, [branch(i) for i in range(n_levels)],
+                                                           c["states"], hist)
+            better = bf < c["best_f"]
+            return dict(
+                c, states=states, best_x=jnp.where(better, bx, c["best_x"]),
+                best_f=jnp.where(better, bf, c["best_f"]), used=c["used"] + n, status=st,
+                hist_f=hf, hist_n=hn, pos=p, n_runs=c["n_runs"] + 1,
+                n_large=c["n_large"] + jnp.where(go_small, 0, 1).astype(jnp.int32),
+                small=c["small"] + jnp.where(go_small, n, 0), large=c["large"] + jnp.where(go_small, 0, n),
+                done=st == RESULTS.target_reached)
+
+        return lax.cond(go_small | go_large, run, lambda c: dict(c, stop=jnp.asarray(True)), c)
+
+    c = dict(states=states, best_x=best_x, best_f=best_f, used=used, status=status, hist_f=hist_f,
+             hist_n=hist_n, pos=pos, n_runs=jnp.asarray(1, jnp.int32), n_large=int0, small=small, large=large,
+             done=status == RESULTS.target_reached, stop=jnp.asarray(False))
+    c = lax.while_loop(more, next_run, c)
+    written = jnp.arange(n_hist) < c["pos"]
+    hist_f = jnp.where(written, c["hist_f"], c["best_f"])
+    hist_n = jnp.where(written, c["hist_n"], c["used"])
+    stalled = plan.first.converged(hist_f, hist_n)
+    status = RESULTS.where(c["status"] == RESULTS.max_steps_reached,
+                           RESULTS.where(stalled, RESULTS.stalled, RESULTS.max_steps_reached), c["status"])
+    status = RESULTS.where(~jnp.isfinite(c["best_f"]), RESULTS.nonfinite, status)
+    result = OptimiseResult(c["best_x"], c["best_f"], c["used"], status, hist_f, hist_n)
+    return result, RestartState(c["states"], c["n_runs"], c["n_large"], c["small"], c["large"])
 
 
-def _run(fn, solver, lower, upper, y0, key, max_evaluations, used, skip):
-    """One run of ``solver`` within what is left of the budget (``used`` calls spent before it);
-    ``skip``: run nothing (a result with no evaluations and an infinite cost)."""
+def _run(fn, solver, lower, upper, y0, key, max_evaluations):
+    """One run of ``solver`` within the budget: a ``lax.scan`` of the steps the budget allows."""
     n_dim = lower.shape[-1]
     n_steps = n_steps_for_budget(solver, n_dim, max_evaluations)
     limit = getattr(solver, "max_generations", None)
@@ -429,7 +551,7 @@ def _run(fn, solver, lower, upper, y0, key, max_evaluations, used, skip):
     state = solver.init(fn, y0, lower, upper, k_init)
 
     def body(state, k):
-        frozen = skip | solver.terminate(state)[0] | (used + state.n_evals + max_per_step > max_evaluations)
+        frozen = solver.terminate(state)[0] | (state.n_evals + max_per_step > max_evaluations)
         state = lax.cond(frozen, lambda s: s,
                          lambda s: solver.step(fn, s, lower, upper, k), state)
         return state, (state.best_f, state.n_evals)
@@ -442,13 +564,12 @@ def _run(fn, solver, lower, upper, y0, key, max_evaluations, used, skip):
     status = RESULTS.where(~jnp.isfinite(state.best_f), RESULTS.nonfinite,
                            RESULTS.where(done, why, RESULTS.where(stalled, RESULTS.stalled,
                                                                  RESULTS.max_steps_reached)))
-    n_evals = jnp.where(skip, 0, jnp.asarray(state.n_evals, jnp.int32))
     result = OptimiseResult(
         params=state.best_x,
-        cost=jnp.where(skip, jnp.inf, state.best_f),
-        n_evaluations=n_evals,
+        cost=state.best_f,
+        n_evaluations=jnp.asarray(state.n_evals, jnp.int32),
         status=status,
-        history_cost=jnp.where(skip, jnp.inf, hist_f),
-        history_evaluations=jnp.where(skip, 0, hist_n),
+        history_cost=hist_f,
+        history_evaluations=hist_n,
     )
     return result, state

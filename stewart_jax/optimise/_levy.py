@@ -38,7 +38,7 @@ def mantegna_sigma(beta: float = BETA) -> float:
 
 def mantegna_step(key: PRNGKeyArray, shape: tuple[int, ...], beta: float = BETA) -> Float[Array, "..."]:
     """Independent Lévy steps ``u / |v|^(1/β)`` of the given shape (Wang et al. 2018, eq. 10), from the
-    optimisers' generator (:func:`stewart_jax.optimise.draw`; float32)."""
+    optimisers' generator (:func:`~stewart_jax.optimise._random.draw`; float32)."""
     rnd = draw(key, zu=("normal", shape), zv=("normal", shape))
     return mantegna_from_normals(rnd["zu"], rnd["zv"], beta)
 
