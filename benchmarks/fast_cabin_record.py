@@ -10,11 +10,11 @@ Records are simulated by the time integrators (lumped-mass cables with N segment
 
     python benchmarks/fast_cabin_record.py --durations 10,20,40 --noise-mm 1,3,10 --seeds 4
     python benchmarks/fast_cabin_record.py --quick         # 2 durations × 2 noise levels × 2 seeds
-    python benchmarks/fast_cabin_record.py --durations 8,10,20 --noise-mm 20,40 --tag limits
-    python benchmarks/fast_cabin_record.py --record-segments 8 --durations 20,40 --noise-mm 1,3 \
-        --cases cable_inertia                              # records finer than the model
+    python benchmarks/fast_cabin_record.py --record-segments 8 --durations 20 --noise-mm 1,3 \
+        --cases cable_inertia --seeds 4                    # records finer than the model
 
-Results: ``benchmarks/results/fast_cabin_record{,_quick}.{json,md}``, rewritten after every cell
+Results: ``benchmarks/results/fast_cabin_record{,_quick,_records_n8}{,_TAG}.{json,md}`` (the
+first and third commands above have been run), rewritten after every cell
 (an interrupted run keeps what it has).
 """
 
