@@ -1,5 +1,6 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS) and
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS; or, with
+``--geometry fast``, on a record of the FAST cabin's free vibration) and
 ``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
 
@@ -7,6 +8,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+FAST_SIGMA_UM = 1000.0
+"""Default tracker noise of a FAST cabin record per position coordinate (µm)."""
+FAST_SIGMA_ARCSEC = 36.0
+"""Default tracker noise of a FAST cabin record per rotation component (″, 0.01°)."""
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
@@ -17,6 +23,13 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ._points import is_points_file
 
     check_outputs(args, json="--json", out_model="--out-model")
+    if args.geometry == "fast":
+        return _cmd_diagnose_cabin(args)
+    for option, value in (("--position", args.position), ("--segments", args.segments)):
+        if value is not None:
+            raise ValueError(f"{option} belongs to a FAST cabin record (--geometry fast)")
+    args.sigma_um = 0.1 if args.sigma_um is None else args.sigma_um
+    args.sigma_arcsec = 0.1 if args.sigma_arcsec is None else args.sigma_arcsec
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     if is_points_file(args.file):
         return _diagnose_points(args, effects)
@@ -118,6 +131,118 @@ def _finish(args: argparse.Namespace, report, out: dict) -> int:
     return 0
 
 
+def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
+    """``diagnose RECORD.csv --geometry fast``: the workflow on a record of the FAST cabin's free
+    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model)."""
+    import numpy as np
+
+    from ..discrepancy import diagnose
+    from ..discrepancy._cabin_record import (
+        BASE_NAMES,
+        DEFAULT_SEGMENTS,
+        cabin_record_model,
+        fitted_modes,
+        read_cabin_record,
+    )
+
+    position = (0.0, 0.0, 140.0) if args.position is None else args.position
+    segments = DEFAULT_SEGMENTS if args.segments is None else args.segments
+    if args.sigma_stroke_um or args.sigma_reading_urad:
+        raise ValueError("--sigma-stroke-um and --sigma-reading-urad are an actuator reading's noise; a cabin record "
+                         "has none")
+    if args.targets is not None or args.tracker_sigma_um is not None:
+        raise ValueError("--targets and --tracker-sigma-um are for a points file; a cabin record's noise is "
+                         "--sigma-um and --sigma-arcsec")
+    sigma_um = FAST_SIGMA_UM if args.sigma_um is None else args.sigma_um
+    sigma_arcsec = FAST_SIGMA_ARCSEC if args.sigma_arcsec is None else args.sigma_arcsec
+    from ..cable_robot._lumped import check_segments
+
+    check_segments(segments)
+    data = read_cabin_record(args.file)
+    model = cabin_record_model(data, position, segments=segments, sigma_um=sigma_um, sigma_arcsec=sigma_arcsec)
+    effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    report = diagnose(data, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,
+                      alpha=args.alpha, estimate_noise=args.estimate_noise)
+    out = report.to_dict()
+    out["file"] = args.file
+    out["settings"] = {
+        "geometry": "fast",
+        "model": model.name,
+        "position_m": list(position),
+        "segments": segments,
+        "sigma_um": sigma_um,
+        "sigma_arcsec": sigma_arcsec,
+        "holdout_fraction": args.holdout_fraction,
+        "seed": args.seed,
+        "alpha": args.alpha,
+        "estimate_noise": args.estimate_noise,
+    }
+    t = np.asarray(data.time)
+    out["record"] = {"rows": int(t.size), "duration_s": float(t[-1]), "rate_hz": float((t.size - 1) / t[-1]),
+                     "notes": list(model.notes)}
+    base = np.asarray(report.fitted.base)
+    out["base_params"] = {
+        "names": list(BASE_NAMES),
+        "units": ["mm"] * 3 + ["mrad"] * 3 + ["mm/s"] * 3 + ["mrad/s"] * 3 + ["1"] + ["mm"] * 3 + ["mrad"] * 3,
+        "before": np.asarray(report.base_fitted.base).tolist(),
+        "after": base.tolist(),
+    }
+    out["modes"] = {
+        "before": fitted_modes(model),
+        "after": fitted_modes(model, report.fitted.effects, report.fitted.thetas),
+        "measured_band_hz": [0.12, 0.2],
+        "measured_band_source": "Li, Sun, Li, Yao, Universe 10(12):450, 2024 (lowest cabin-cable mode)",
+    }
+    if args.plot:
+        from ._common import file_backend
+
+        file_backend()
+        from ..plotting import plot_cabin_record, plot_residuals, show
+
+        out["plots"] = plot_residuals(report, args.plot)
+        import os
+
+        path = os.path.join(args.plot, "record_fit.png")
+        show(plot_cabin_record(report, data), path)
+        out["plots"].append(path)
+    if args.out_model:
+        from .._files import json_text, write_text_atomic
+
+        write_text_atomic(args.out_model, json_text({
+            "model": model.name, "position_m": list(position), "segments": segments,
+            "base_params": dict(zip(BASE_NAMES, base.tolist(), strict=True)),
+            "effects": report.fitted.effect_report(), "modes_hz": out["modes"]["after"]["frequencies_hz"],
+        }))
+    skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
+    low = lambda m: f"{m['frequencies_hz'][0]:.4f} Hz" if m["frequencies_hz"] else "none"  # noqa: E731
+    lines = report.summary() + [f"note: {n}" for n in model.notes]
+    lines.append(f"lowest cabin mode {low(out['modes']['before'])} (quasi-static) → {low(out['modes']['after'])} "
+                 "(augmented model); measured on FAST: 0.12–0.2 Hz")
+    for line in lines + ([f"skipped {skipped}"] if skipped else []):
+        print(f"diagnose: {line}", file=sys.stderr)
+    if args.json:
+        from ._common import write_json
+
+        write_json(args.json, out)
+    else:
+        from .._files import json_text
+
+        print(json_text(out, indent=None), end="")
+    return 0
+
+
+def _position(text: str) -> tuple[float, float, float]:
+    import math
+
+    try:
+        values = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--position must be X,Y,Z in metres, got {text!r}") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"--position must be three finite numbers X,Y,Z, got {text!r}")
+    return values  # type: ignore[return-value]
+
+
 def _reading_sigma(args: argparse.Namespace, geometry) -> float:
     """The reading noise in the readings' report unit: ``--sigma-stroke-um`` (linear readings) or
     ``--sigma-reading-urad`` (a rotary family's crank angles), the other refused."""
@@ -161,15 +286,24 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     per_family = "; ".join(f"{fam}: {', '.join(effect_names(m))}" for fam, m in model_families().items())
     p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
     p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional), or a "
-                   "laser tracker's points file (pose, target, q1..q6, x, y, z) with --targets")
+                   "laser tracker's points file (pose, target, q1..q6, x, y, z) with --targets; with --geometry fast a "
+                   "record of the FAST cabin (time,x,y,z,rx,ry,rz)")
     p.add_argument("--geometry", default="nominal",
-                   help="starting geometry: preset or JSON/TOML file; its family picks the model and the candidates")
+                   help="starting geometry: preset or JSON/TOML file; its family picks the model and the candidates; "
+                   "'fast': the file is a free-vibration record of the FAST cabin (time,x,y,z,rx,ry,rz; candidates: "
+                   "cable_inertia, cable_stiffness, cabin_mass, damping)")
     p.add_argument("--targets", help="a points file's targets (JSON, mm): its rows are the tracker's points")
     p.add_argument("--tracker-sigma-um", type=tracker_sigma_arg, metavar="RANGE,ACROSS_PER_M",
                    help="a points file's tracker noise: σ along the line of sight (µm) and across it (µm per metre "
                    "of distance); default 5,2.5")
-    p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
-    p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
+    p.add_argument("--position", type=_position, default=None, metavar="X,Y,Z",
+                   help="--geometry fast: the cabin's position G t_C in metres (default 0,0,140)")
+    p.add_argument("--segments", type=int, default=None, metavar="N",
+                   help="--geometry fast: lumped-mass segments per cable behind cable_inertia (default 8)")
+    p.add_argument("--sigma-um", type=float, default=None,
+                   help=f"pose noise σ, translation (µm; default 0.1, or {FAST_SIGMA_UM:g} for --geometry fast)")
+    p.add_argument("--sigma-arcsec", type=float, default=None,
+                   help=f"pose noise σ, angles (″; default 0.1, or {FAST_SIGMA_ARCSEC:g} for --geometry fast)")
     p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="actuator reading noise σ (µm)")
     p.add_argument("--sigma-reading-urad", type=float, default=0.0,
                    help="a rotary family's crank-reading noise σ (µrad)")

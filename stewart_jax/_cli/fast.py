@@ -78,8 +78,50 @@ def add_fast_parser(subparsers) -> argparse.ArgumentParser:
                    help="segments per cable for --cables lumped (N >= 2, default 20)")
     p.add_argument("--cutoff-hz", type=float, default=1.5,
                    help="--cables lumped: list the modes below this frequency in Hz (default 1.5)")
+    g = p.add_argument_group(
+        "free-decay record (--free-decay)",
+        "Displace the cabin, release it and write its pose as a tracker samples it (CSV columns time,x,y,z,rx,ry,rz: "
+        "s; mm, C's origin in G from its static position; degrees, rotation vector in G), simulated on "
+        "--cables quasi-static (elastic catenaries) or lumped (N lumped-mass segments per cable); "
+        "--duration is the record's length, --dt the integrator's step")
+    g.add_argument("--free-decay", action="store_true", help="write a free-decay record of the cabin to --out")
+    g.add_argument("--out", metavar="RECORD.csv", help="the record (CSV)")
+    g.add_argument("--rate-hz", type=float, default=10.0, help="sampling rate of the record in Hz (default 10)")
+    g.add_argument("--initial-mm", type=_triple("--initial-mm"), default=(20.0, 10.0, 5.0), metavar="X,Y,Z",
+                   help="initial displacement of C's origin in mm (default 20,10,5)")
+    g.add_argument("--initial-deg", type=_triple("--initial-deg"), default=(0.01, 0.01, 0.02), metavar="RX,RY,RZ",
+                   help="initial rotation vector in degrees (default 0.01,0.01,0.02)")
+    g.add_argument("--velocity-mm-s", type=_triple("--velocity-mm-s"), default=(0.0, 0.0, 0.0), metavar="X,Y,Z",
+                   help="initial velocity of C's origin in mm/s (default 0)")
+    g.add_argument("--velocity-deg-s", type=_triple("--velocity-deg-s"), default=(0.0, 0.0, 0.0), metavar="RX,RY,RZ",
+                   help="initial angular velocity in degrees/s (default 0)")
+    g.add_argument("--damping", default="0.005", metavar="Z or SWING,HEAVE,ROTATION",
+                   help="modal damping ratio of every mode (default 0.005), or one per mode group (swing, heave, "
+                        "rotation; quasi-static cables only)")
+    g.add_argument("--noise-mm", type=float, default=1.0,
+                   help="tracker noise σ per position coordinate, mm (default 1)")
+    g.add_argument("--noise-deg", type=float, default=0.01,
+                   help="tracker noise σ per rotation component, degrees (default 0.01)")
+    g.add_argument("--seed", type=int, default=0, help="seed of the tracker noise (default 0)")
+    g.add_argument("--ea-scale", type=float, default=1.0,
+                   help="the cables' EA is this × the paper's (statics solved again at the position; default 1)")
+    g.add_argument("--cabin-mass-scale", type=float, default=1.0,
+                   help="every mass and inertia of the cabin assembly is this × the paper's (default 1)")
     p.set_defaults(func=run_fast)
     return p
+
+
+def _triple(option: str):
+    def parse(text: str) -> tuple[float, float, float]:
+        try:
+            values = tuple(float(v) for v in text.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} must be three numbers A,B,C, got {text!r}") from None
+        if len(values) != 3 or not all(np.isfinite(values)):
+            raise argparse.ArgumentTypeError(f"{option} must be three finite numbers A,B,C, got {text!r}")
+        return values  # type: ignore[return-value]
+
+    return parse
 
 
 def _finite(x):
@@ -124,19 +166,27 @@ def run_fast(args: argparse.Namespace) -> int:
     from ..cable_robot._scenario import run_scenario_jit
     from ._common import check_outputs
 
-    check_outputs(args, json="--json", plot="--plot")
-    if getattr(args, "cables", "quasi-static") == "lumped":
+    check_outputs(args, json="--json", plot="--plot", out="--out")
+    if getattr(args, "free_decay", False):
+        problem = _free_decay_problem(args)
+        if problem:
+            print(f"error: {problem}", file=sys.stderr)
+            return 2
+    elif getattr(args, "out", None):
+        print("error: --out writes a free-decay record: add --free-decay", file=sys.stderr)
+        return 2
+    if getattr(args, "cables", "quasi-static") == "lumped" and not getattr(args, "free_decay", False):
         if not args.modes:
             print("error: --cables lumped computes the statics and modes only; add --modes "
                   "(the time simulation runs on quasi-static cables)", file=sys.stderr)
             return 2
-        if args.segments < 2:
-            print(f"error: --segments must be at least 2 (one free node per cable), got {args.segments}",
-                  file=sys.stderr)
-            return 2
         if not (np.isfinite(args.cutoff_hz) and args.cutoff_hz > 0):
             print(f"error: --cutoff-hz must be a positive frequency in Hz, got {args.cutoff_hz}", file=sys.stderr)
             return 2
+    if getattr(args, "cables", "quasi-static") == "lumped" and args.segments < 2:
+        print(f"error: --segments must be at least 2 (one free node per cable), got {args.segments}",
+              file=sys.stderr)
+        return 2
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         print("error: need 0 < dt <= duration", file=sys.stderr)
         return 2
@@ -148,8 +198,9 @@ def run_fast(args: argparse.Namespace) -> int:
     if problem:
         print(f"error: {problem}", file=sys.stderr)
         return 2
-    for note in (focal_surface_warning(args.position),
-                 check_time_step(args.dt, PAPER_FREQUENCY, highest_mode_bound_hz(params, args.position))):
+    step_note = (None if getattr(args, "free_decay", False)
+                 else check_time_step(args.dt, PAPER_FREQUENCY, highest_mode_bound_hz(params, args.position)))
+    for note in (focal_surface_warning(args.position), step_note):
         if note:
             print(f"warning: {note}", file=sys.stderr)
     sol = _statics(args, params)
@@ -175,6 +226,8 @@ def run_fast(args: argparse.Namespace) -> int:
         if args.json:
             _write_json(args.json, out)
         return 1
+    if getattr(args, "free_decay", False):
+        return _run_free_decay(args, params, sol, out)
     if getattr(args, "cables", "quasi-static") == "lumped":
         return _run_lumped(args, params, sol, out)
     R = None if sol.kind == "level" or not float(sol.tilt_rad) else jnp.asarray(sol.R)
@@ -297,6 +350,109 @@ def _run_lumped(args, params, sol, out: dict) -> int:
     if args.json:
         _write_json(args.json, out)
     return 0 if out["status"] == "ok" else 1
+
+
+def _damping(text: str) -> tuple[float, tuple[float, float, float]] | None:
+    """``--damping``: one ratio, or one per mode group → (common ratio, change per group)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        return None
+    if len(values) == 1:
+        return values[0], (0.0, 0.0, 0.0)
+    if len(values) == 3:
+        return values[0], (0.0, values[1] - values[0], values[2] - values[0])
+    return None
+
+
+def _free_decay_problem(args) -> str | None:
+    """What is wrong with the free-decay options (checked before any work), or ``None``."""
+    if not args.out:
+        return "--free-decay writes its record to --out RECORD.csv; give --out"
+    if args.modes or args.plot:
+        return "--free-decay writes a record only: drop --modes/--plot"
+    if args.attitude != "level":
+        return ("--free-decay simulates the level attitude (Yin et al.'s), the one that "
+                "`stewart-jax diagnose --geometry fast` assumes")
+    d = _damping(args.damping)
+    if d is None:
+        return f"--damping must be one ratio or three (swing, heave, rotation), got {args.damping!r}"
+    zs = [d[0] + c for c in d[1]]
+    if not all(np.isfinite(z) and 0 <= z < 1 for z in zs):
+        return f"--damping ratios must lie in [0, 1), got {args.damping!r}"
+    if args.cables == "lumped" and any(c != 0 for c in d[1]):
+        return "--damping per mode group needs --cables quasi-static (the lumped cables take one ratio)"
+    if not (np.isfinite(args.rate_hz) and args.rate_hz > 0):
+        return f"--rate-hz must be a positive sampling rate, got {args.rate_hz}"
+    if args.rate_hz * args.dt > 1.0:
+        return f"--rate-hz {args.rate_hz} is faster than the integrator's step --dt {args.dt} s"
+    for name, v in (("--noise-mm", args.noise_mm), ("--noise-deg", args.noise_deg)):
+        if not (np.isfinite(v) and v >= 0):
+            return f"{name} must be a finite number >= 0, got {v}"
+    for name, v in (("--ea-scale", args.ea_scale), ("--cabin-mass-scale", args.cabin_mass_scale)):
+        if not (np.isfinite(v) and v > 0):
+            return f"{name} must be a positive factor, got {v}"
+    return None
+
+
+def _run_free_decay(args, params, sol, out: dict) -> int:
+    """``--free-decay``: simulate the release of the displaced cabin and write the record."""
+    from ..cable_robot import lumped_free_decay, quasi_static_free_decay
+    from ..cable_robot._cabin_modal import scaled_params
+    from ..cable_robot._free_decay import write_record
+
+    zeta, change = _damping(args.damping)
+    q0 = np.concatenate([np.asarray(args.initial_mm) * 1e-3, np.deg2rad(args.initial_deg)])
+    v0 = np.concatenate([np.asarray(args.velocity_mm_s) * 1e-3, np.deg2rad(args.velocity_deg_s)])
+    p = scaled_params(params, args.ea_scale, args.cabin_mass_scale)
+    t0 = time.perf_counter()
+    if args.cables == "lumped":
+        dec = lumped_free_decay(p, args.position, args.segments, args.duration, args.dt, displacement=q0,
+                                velocity=v0, damping_ratio=zeta)
+    else:
+        dec = quasi_static_free_decay(p, args.position, args.duration, args.dt, displacement=q0, velocity=v0,
+                                      damping_ratio=zeta, damping_change=change)
+    seconds = time.perf_counter() - t0
+    rec = dec.sample(args.rate_hz, sigma_mm=args.noise_mm, sigma_deg=args.noise_deg, seed=args.seed)
+    write_record(args.out, rec)
+    low = dec.frequencies_hz[dec.frequencies_hz > 0]
+    ok = dec.failed_solves == 0
+    out.update({
+        "status": "ok" if ok else "simulation_failed",
+        "record": args.out,
+        "cables": {"model": dec.cables, "segments": dec.segments},
+        "duration_s": float(rec.time[-1]),
+        "dt_s": float(dec.time[1] - dec.time[0]),
+        "rate_hz": float(1.0 / (rec.time[1] - rec.time[0])),
+        "rows": int(len(rec.time)),
+        "initial": {"displacement_mm": list(args.initial_mm), "rotation_deg": list(args.initial_deg),
+                    "velocity_mm_s": list(args.velocity_mm_s), "angular_velocity_deg_s": list(args.velocity_deg_s)},
+        "damping_ratio": zeta,
+        "damping_groups": {"groups": ["swing", "heave", "rotation"], "ratio": [zeta + c for c in change]},
+        "ea_scale": args.ea_scale,
+        "cabin_mass_scale": args.cabin_mass_scale,
+        "noise": {"sigma_mm": args.noise_mm, "sigma_deg": args.noise_deg, "seed": args.seed},
+        "frequencies_hz": dec.frequencies_hz[dec.frequencies_hz < args.cutoff_hz].tolist(),
+        "cutoff_hz": args.cutoff_hz,
+        "failed_cable_solves": dec.failed_solves,
+        "max_segment_strain": dec.max_strain,
+        "seconds": seconds,
+    })
+    print(f"free decay of the cabin at {list(args.position)} m on {dec.cables} cables"
+          + (f" ({dec.segments} segments)" if dec.segments else "")
+          + f": {len(rec.time)} samples at {out['rate_hz']:.4g} Hz over {out['duration_s']:.4g} s "
+          f"(dt {out['dt_s']:.3g} s, {seconds:.1f} s incl. compile) written to {args.out}")
+    print(f"lowest mode {low[0]:.4f} Hz; noise σ {args.noise_mm} mm, {args.noise_deg}° (seed {args.seed})")
+    if out["duration_s"] < 2.0 / low[0]:
+        print(f"warning: the record lasts {out['duration_s']:.3g} s, less than two periods of the lowest mode "
+              f"({2.0 / low[0]:.3g} s); `stewart-jax diagnose` needs at least two periods of the quasi-static "
+              "model's lowest mode", file=sys.stderr)
+    if not ok:
+        print(f"error: {dec.failed_solves} catenary solves missed their tolerance; the record is not trustworthy",
+              file=sys.stderr)
+    if args.json:
+        _write_json(args.json, out)
+    return 0 if ok else 1
 
 
 def _plot(res, path: str) -> None:

@@ -27,6 +27,11 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   block-tridiagonal chains), chain-by-chain solves, the banded standard form.
 - :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
   (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
+- :mod:`._cabin_modal` — beyond the paper: the cabin's free vibration as a differentiable modal
+  superposition, quasi-static or with the cables' inertia (Craig–Bampton reduction of the
+  lumped cables), a changed EA, cabin mass or damping per mode group.
+- :mod:`._free_decay` — beyond the paper: free-decay records of the cabin (quasi-static or
+  lumped cables, time integration) sampled with tracker noise; the record CSV.
 
 What a user calls: :func:`paper_fast_params` (:class:`FastParams`, with its
 :class:`CableParams`); :func:`solve_catenary`; :func:`static_equilibrium`; :func:`run_scenario`,
@@ -35,8 +40,11 @@ static_argnames=("duration", "dt", "start", "method"))``); :func:`cabin_statics`
 :func:`workspace_map` and :func:`focal_surface_point`; :func:`solve_attitude` and
 :func:`smallest_feasible_tilt`; :func:`cabin_modes`, :func:`modes_map` and
 :func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`lumped_low_modes`,
-:func:`modal_summary` and :func:`simulate_lumped`. The modules' building blocks (the catenary's Jacobian and starts,
-the platform's Newton–Euler dynamics, the integrator behind :func:`run_scenario`) are private.
+:func:`modal_summary` and :func:`simulate_lumped`; :func:`cabin_modal_model` (its ``modes``
+under a :class:`CabinVariation`), :func:`lumped_free_decay` and :func:`quasi_static_free_decay`
+(their ``sample``, a tracker's record). The modules' building blocks (the
+catenary's Jacobian and starts, the platform's Newton–Euler dynamics, the integrator behind
+:func:`run_scenario`, the modal sum and the record CSV's writer) are private.
 """
 
 from typing import Any as _Any
@@ -47,11 +55,13 @@ from ._attitude import (
     smallest_feasible_tilt as smallest_feasible_tilt,
     solve_attitude as solve_attitude,
 )
+from ._cabin_modal import CabinVariation as CabinVariation, cabin_modal_model as cabin_modal_model
 from ._catenary import (
     CableParams as CableParams,
     CatenarySolution as CatenarySolution,
     solve_catenary as solve_catenary,
 )
+from ._free_decay import lumped_free_decay as lumped_free_decay, quasi_static_free_decay as quasi_static_free_decay
 from ._lumped import (
     LumpedLowModes as LumpedLowModes,
     LumpedModes as LumpedModes,

@@ -16,7 +16,10 @@ The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cab
 parallel robot with a Stewart platform for use in FAST"; :func:`fast_responses`,
 :func:`fast_model`, :func:`simulate_fast_measurement`, :class:`FastData`, effects under
 ``"fast"``) is loaded on first access, so that importing this package does not load the
-cable-robot simulator. The residual figures are in :mod:`stewart_jax.plotting`.
+cable-robot simulator; so is the FAST cabin-record model (a record of the cabin's free
+vibration against the paper's quasi-static cables: :func:`read_cabin_record`,
+:func:`cabin_record_model`, effects under ``"fast-cabin"``). The residual figures are in
+:mod:`stewart_jax.plotting`.
 """
 
 from typing import Any as _Any
@@ -53,6 +56,7 @@ from ._report import (
 )
 
 _CABLE_ROBOT = ("FastData", "fast_model", "fast_responses", "simulate_fast_measurement")
+_CABIN_RECORD = ("cabin_record_model", "read_cabin_record")
 
 
 def __getattr__(name: str) -> _Any:
@@ -60,8 +64,12 @@ def __getattr__(name: str) -> _Any:
         from . import _cable_robot
 
         return getattr(_cable_robot, name)
+    if name in _CABIN_RECORD:
+        from . import _cabin_record
+
+        return getattr(_cabin_record, name)
     return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_CABLE_ROBOT))
+    return sorted(set(globals()) | set(_CABLE_ROBOT) | set(_CABIN_RECORD))

@@ -98,7 +98,71 @@ def _base_fits(model, effects, trains):
     return jnp.concatenate([res.params, jnp.zeros((b, n_eff))], axis=1), res.status == RESULTS.successful
 
 
-def _fit_gn(model, effects, mask, train, w_tr, test, z0):
+PROFILE_STEPS = 2
+"""Gauss–Newton steps on the base parameters alone at each starting point of a model's
+:meth:`~stewart_jax.discrepancy.AbstractDiscrepancyModel.effect_grid`."""
+LINE_SEARCH = 0.5 ** np.arange(6)
+"""Step lengths tried, longest first, by the augmented fits of a model with an effect grid."""
+
+
+def _grid_profiles(model, effects, train, w_tr):
+    """For a model with an effect grid: every row's profile (the base parameters fitted from the
+    model's ``base_initial``, not from the base fit, which a far-off model may have sent
+    anywhere, with the effects held at the row), its χ², and which effects the row moves.
+    ``None`` for a model without a grid."""
+    grid = model.effect_grid(effects)
+    if grid is None:
+        return None
+    grid = np.asarray(grid, dtype=np.float64)
+    slices = effect_slices(model, effects)
+    nb = model.base_initial.shape[0]
+    if grid.ndim != 2 or grid.shape[1] != sum(e.n_params for e in effects):
+        raise ValueError(f"{type(model).__name__}.effect_grid must return rows of "
+                         f"{sum(e.n_params for e in effects)} values, got {grid.shape}")
+    moves = np.stack([np.any(grid[:, sl - nb] != 0, axis=1) for sl in slices], axis=1).astype(np.float64)
+    args = (model, effects, jnp.ones(len(effects)), train, w_tr)
+
+    # NOTE: the base parameters alone are differentiated here (the effects' parameters are
+    # constants of the profile), so a model whose effects change an eigen-decomposition pays
+    # for it once per row, not once per unknown; and the rows are profiled once per data set,
+    # whatever the masks fitted from them.
+    def profile(z_eff):
+        def res(zb):
+            return _white_residual(jnp.concatenate([zb, z_eff]), args)
+
+        def step(zb, _):
+            r = res(zb)
+            a = jax.jacfwd(res)(zb)
+            d = jnp.linalg.norm(a, axis=0)
+            d = jnp.where(d > 0, d, 1.0)
+            a = a / d
+            normal = a.T @ a + GN_RIDGE * jnp.eye(nb)
+            return zb - jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(normal), a.T @ r) / d, None
+
+        zb, _ = jax.lax.scan(step, jnp.zeros(nb), None, length=PROFILE_STEPS)
+        chi2 = jnp.sum(res(zb) ** 2)
+        return jnp.concatenate([zb, z_eff]), jnp.where(jnp.isfinite(chi2), chi2, jnp.inf)
+
+    zs, chi2 = jax.lax.map(profile, jnp.asarray(grid))
+    return zs, chi2, jnp.asarray(moves)
+
+
+def _start(model, effects, mask, train, w_tr, z0, profiles):
+    """The augmented fit's start: ``z0 * keep`` (the base fit, effects at 0), or, with grid
+    ``profiles``, the profiled row of least χ² among those moving only the effects in ``mask``,
+    if it beats the base fit's χ²."""
+    keep = _keep(model, effects, mask)
+    if profiles is None:
+        return z0 * keep
+    zs, chi2, moves = profiles
+    eligible = jnp.all(moves <= mask[None, :], axis=1)
+    chi2 = jnp.where(eligible, chi2, jnp.inf)
+    best = jnp.argmin(chi2)
+    chi2_0 = jnp.sum(_white_residual(z0 * keep, (model, effects, mask, train, w_tr)) ** 2)
+    return jnp.where(chi2[best] < chi2_0, zs[best] * keep, z0 * keep)
+
+
+def _fit_gn(model, effects, mask, train, w_tr, test, z0, profiles=None):
     """Gauss–Newton refinement of base + the effects in ``mask`` from ``z0`` (the base fit).
 
     NOTE: started at the base optimum with the effect parameters at 0, every augmented problem
@@ -110,10 +174,13 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0):
     so each step is a full-rank solve even when two effects are collinear. The normal equations
     (Cholesky, ~1 ms) replace QR (~50 ms on CPU for these sizes): they square the condition
     number (~1e5 → 1e10 here), which costs accuracy in the step, not in the fixed point — the
-    next step corrects it.
+    next step corrects it. A model whose effects are far from linear (a frequency change over a
+    long record) names starting points (:func:`_start`) and its own number of steps, each then
+    shortened until it lowers χ² (:data:`LINE_SEARCH`).
     """
     keep = _keep(model, effects, mask)
     args = (model, effects, mask, train, w_tr)
+    search = model.effect_grid(effects) is not None
 
     def step(carry, _):
         z, _ = carry
@@ -124,9 +191,15 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0):
         a = jac / d
         normal = a.T @ a + jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
         dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(normal), a.T @ r) / d * keep
-        return (z + dz, jnp.sum(r**2)), None
+        chi2 = jnp.sum(r**2)
+        if search:  # backtracking: the longest step that lowers χ², else none
+            trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
+            ok = jnp.isfinite(trial) & (trial < chi2)
+            dz = dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0)
+        return (z + dz, chi2), None
 
-    (z, chi2_prev), _ = jax.lax.scan(step, (z0 * keep, jnp.inf), None, length=GN_STEPS)
+    z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
+    (z, chi2_prev), _ = jax.lax.scan(step, (z_start, jnp.inf), None, length=model.fit_steps or GN_STEPS)
     chi2 = jnp.sum(_white_residual(z, args) ** 2)
     converged = jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
     raw_te = _raw_residual(z, model, effects, mask, test)
@@ -145,8 +218,8 @@ def _prepare(model, effects, train, test, z_base):
     return w_tr, w_te, jac_tr, jac_te
 
 
-def _fit_masks(model, effects, masks, train, w_tr, test, z0):
-    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0), masks)
+def _fit_masks(model, effects, masks, train, w_tr, test, z0, profiles=None):
+    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0, profiles), masks)
 
 
 def _map_datasets(fn, in_axes):
@@ -169,10 +242,12 @@ def _map_datasets(fn, in_axes):
 
 
 _prepare_many = eqx.filter_jit(eqx.filter_vmap(_prepare, in_axes=(None, None, 0, 0, 0)))
-fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0)))
-"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b]) -> (z, χ², converged,
+fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0, 0)))
+"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b], profiles) -> (z, χ², converged,
 held-out raw residuals)``, each with leading axes ``(b, q)``: base + the effects of each mask
-fitted to each of ``b`` data sets (stacked pytrees)."""
+fitted to each of ``b`` data sets (stacked pytrees); ``profiles`` (``None`` for a model without an
+effect grid) are the starting points of :func:`_start`, per data set."""
+_profiles_many = eqx.filter_jit(_map_datasets(_grid_profiles, (None, None, 0, 0)))
 
 
 class BatchFits(NamedTuple):
@@ -215,7 +290,8 @@ def fit_candidates(
     w_tr, w_te, jac_tr, jac_te = _prepare_many(model, effects, trains, tests, z_base)
     b = z_base.shape[0]
     masks = jnp.broadcast_to(jnp.concatenate([jnp.zeros((1, k)), jnp.eye(k)]), (b, k + 1, k))
-    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base)
+    profiles = _profiles_many(model, effects, trains, w_tr) if model.effect_grid(effects) is not None else None
+    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base, profiles)
     return BatchFits(
         *jax.device_get((z, chi2, ok[:, None] & last, raw_te, w_te, w_tr, jac_tr, jac_te, ok))
     )
@@ -229,12 +305,23 @@ def fit_pairs(
     tests: Any,
     fits: BatchFits,
 ) -> Float[np.ndarray, "b q"]:
-    """Training χ² of base + the effects of each mask, started from the base fits.
+    """Training χ² of base + the effects of each mask, started from the base fits (for a model
+    with an effect grid: from the best single-effect fit of an effect in the mask).
 
     NOTE: ``masks`` padded to the shape of :func:`fit_candidates`' masks (data sets ×
-    ``(K + 1)``) reuse its compiled kernel."""
+    ``(K + 1)``) reuse its compiled kernel; so do the starts, padded to the grid's rows."""
+    grid = model.effect_grid(effects)
+    profiles = None
+    if grid is not None:
+        b, k = fits.chi2.shape[0], len(effects)
+        pad = max(grid.shape[0] - k, 0)
+        zs = np.concatenate([fits.z[:, 1:], np.zeros((b, pad, fits.z.shape[2]))], axis=1)
+        chi2_1 = np.where(np.isfinite(fits.chi2[:, 1:]), fits.chi2[:, 1:], np.inf)
+        chi2_1 = np.concatenate([chi2_1, np.full((b, pad), np.inf)], axis=1)
+        moves = np.concatenate([np.eye(k), np.ones((pad, k))])[None].repeat(b, axis=0)
+        profiles = (jnp.asarray(zs), jnp.asarray(chi2_1), jnp.asarray(moves))
     _, chi2, _, _ = jax.device_get(
-        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0])
+        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0], profiles)
     )
     return chi2
 

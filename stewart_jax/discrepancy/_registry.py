@@ -185,6 +185,16 @@ class AbstractDiscrepancyModel(eqx.Module):
     output_names: ClassVar[tuple[str, ...]]
     report_unit: ClassVar[str]
     report_factor: ClassVar[float]
+    fit_steps: ClassVar[int | None] = None
+    """Gauss–Newton steps of the augmented fits (``None``: the workflow's default)."""
+
+    def effect_grid(self, effects: Sequence[Effect]) -> np.ndarray | None:
+        """Optional: starting points for the augmented fits of an effect whose prediction is far
+        from linear in its parameters (a change of frequency over a long record): rows of the
+        effects' scaled unknowns ``θ / scale`` (``Float[np.ndarray, "s n_effects"]``, all the
+        effects' parameters concatenated, a row of zeros included). Each fit first fits the base
+        parameters at every row and starts from the best. ``None`` (default): start at θ = 0."""
+        return None
 
     @property
     @abc.abstractmethod

@@ -1,7 +1,8 @@
 """Figures of the model-discrepancy workflow, from a
 :class:`~stewart_jax.discrepancy.DiagnosisReport` (duck-typed: any object with its fields):
 held-out residuals against a factor before and after the named effect, the ranking of the
-candidate effects, and the gap before / after against the noise floor.
+candidate effects, the gap before / after against the noise floor, and a record of the FAST
+cabin beside the base and the augmented model's prediction.
 """
 
 from __future__ import annotations
@@ -150,5 +151,33 @@ def plot_discrepancy_gap(report: Any, *, title: str | None = None) -> Figure:
     ax.legend(fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
     ax.set_title(title or "gap before / after", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_cabin_record(report: Any, data: Any, *, title: str | None = None) -> Figure:
+    """A record of the FAST cabin's free vibration (``data``, a
+    :class:`~stewart_jax.discrepancy._cabin_record.CabinRecordData`) diagnosed in ``report``: each of the six
+    pose coordinates against time, the samples as dots beside the base model's prediction
+    (quasi-static cables) and the augmented model's (the named effect added), both fitted to the
+    training samples."""
+    t = np.asarray(data.time)
+    y = np.asarray(data.pose)
+    before = np.asarray(report.base_fitted.predict(data))
+    after = np.asarray(report.fitted.predict(data))
+    added = _added(report)
+    names = ("x (mm)", "y (mm)", "z (mm)", "rx (mrad)", "ry (mrad)", "rz (mrad)")
+    fig, axes = plt.subplots(6, 1, figsize=(9, 11), sharex=True)
+    for j, ax in enumerate(axes):
+        ax.plot(t, y[:, j], ".", ms=2, color="0.45", label="record")
+        ax.plot(t, before[:, j], color="tab:red", lw=0.9, label="base model (quasi-static cables)")
+        if added:
+            ax.plot(t, after[:, j], color="tab:blue", lw=0.9, ls="--", label=f"+ {added}")
+        ax.set_ylabel(names[j])
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=7, loc="upper right")
+    axes[-1].set_xlabel("time since the record's first sample (s)")
+    fig.suptitle(title or f"FAST cabin record: named {report.named_effect}; held-out RMS {report.gap_before:.3g} → "
+                 f"{report.gap_after:.3g} {report.fitted.model.report_unit}", fontsize=10)
     fig.tight_layout()
     return fig
