@@ -7,7 +7,7 @@ The suspended assembly (cabin + upper platform, legs, lower platform) is the rig
 lumped modes, with its mass matrix at rest; the lower platform's prescribed motion relative to
 B (eqs. 62–63) enters as the generalised force it exerts on the cabin through the legs with the
 cabin held still, ``f(t) = W(t) − W(0⁻)`` — the legs' wrench from the momentum balance of legs
-+ lower platform (:func:`~stewart_jax.cable_robot.reaction_wrench`), moved to C's origin, less
++ lower platform (:func:`~stewart_jax.cable_robot._stewart.reaction_wrench`), moved to C's origin, less
 its static value.
 
 NOTE (what is linearised): the coupled quasi-static simulation

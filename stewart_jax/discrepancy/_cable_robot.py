@@ -255,7 +255,7 @@ def fast_model(responses: FastResponses, sigma_um: float = 10.0) -> FastModel:
 @register_effect(MODEL_NAME, "cabin_coupling", n_params=1, scale=1.0, unit="× nominal")
 def cabin_coupling(theta: Float[Array, "1"], data: FastData, state: FastState) -> FastState:
     """The cabin is not held still: it recoils and pitches in reaction to the platform's
-    motion (cables, legs and platform coupled, :func:`stewart_jax.cable_robot.simulate`). The extra
+    motion (cables, legs and platform coupled, :func:`~stewart_jax.cable_robot.run_scenario`). The extra
     displacement is κ × the coupled simulation's extra error (κ = 1: the paper's masses; κ
     scales the moving-to-total mass ratio, to first order)."""
     return state._replace(displacement=state.displacement + theta[0] * state.coupled)

@@ -11,7 +11,7 @@ tracker's frame, ``p̂_W = R·(T(P)·a_k + d + v0) + t``.
 
 **Rows** are single target measurements (``(pose, target)`` pairs), three observations each (x, y,
 z in the tracker's frame, mm), whitened by the tracker's noise (σ along the line of sight, σ per
-metre across it: :func:`~stewart_jax.calibration.tracker_whitening`). The noise is independent
+metre across it: :func:`~stewart_jax.calibration._points.tracker_whitening`). The noise is independent
 from point to point and the reached pose is not a parameter (it is solved from the readings), so
 the points of one pose are independent given the base parameters, and the workflow's random
 train/held-out split of rows is a split of points.
