@@ -61,7 +61,8 @@ import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
 from stewart_jax.calibration import METHOD_REGISTRY, calibrate_batch, perturbed, reachable_travel  # noqa: E402
 from stewart_jax.mechanism import preset  # noqa: E402
-from stewart_jax.optimise import SMCS, VSASMCS, SimplexCoefficients, minimise, status_code  # noqa: E402
+from stewart_jax.optimise import SMCS, VSASMCS, SimplexCoefficients, minimise  # noqa: E402
+from stewart_jax.optimise._result import status_code  # noqa: E402  (private: statuses as integers for the arrays)
 from stewart_jax.study import (  # noqa: E402
     best_within_budgets,
     data_profiles,
@@ -131,7 +132,7 @@ def make_problem(name: str, n_seeds: int, first: int) -> Problem:
         data = [dc.simulate_hidden_effect(s, "backlash", 5.0, n_random=24, plan=False).data for s in seeds]
         stacked = jax.tree.map(lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *data)
         probs = jax.vmap(lambda d: sj.calibration_problem(d, nominal, 10.0))(stacked)
-        val = jax.vmap(lambda k: sj.random_poses(k, 42, half=tuple(float(h) for h in reachable_travel(
+        val = jax.vmap(lambda k: sj.calibration.random_poses(k, 42, half=tuple(float(h) for h in reachable_travel(
             nominal))))(jax.random.split(jax.random.key(7), n_seeds))
         opt_keys = jax.vmap(lambda k: jax.random.split(k, 4)[3])(keys)
         return Problem(name, "6-PSS, 24 random poses with a hidden backlash 5× the noise (σ = 0.1 µm / 0.1″); "

@@ -35,21 +35,22 @@ import numpy as np  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
-from stewart_jax.discrepancy import diagnose_many, select_effects, split_rows  # noqa: E402
+from stewart_jax.calibration import make_calibration_data  # noqa: E402
+from stewart_jax.discrepancy._driver import diagnose_many, select_effects, split_rows  # noqa: E402  (the batched engine)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-EFFECTS = dc.effect_names(dc.PSS_MODEL_NAME)
+EFFECTS = dc.effect_names("6-pss")
 LABELS = ("none",) + EFFECTS
 
 
 def _control_rms(truth, fitted, rng):
     """RMS control error (µm over dx,dy,dz; ″ over φ,θ,ψ) at 42 random validation poses."""
-    half = np.array([sj.calibration.TRAVEL_MM] * 3 + [sj.calibration.TRAVEL_RAD] * 3)
+    half = np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3)  # the paper's travel, ±1 mm, ±1°
     targets = rng.uniform(-half, half, (42, 6))
     cond = dc.random_conditions(rng, 42)
-    data = sj.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)
+    data = make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)
     err = dc.true_control_error(truth, np.asarray(fitted.commanded(data)), targets, cond)
-    e = sj.error_in_report_units(err)
+    e = sj.calibration.error_in_report_units(err)
     return float(np.sqrt(np.mean(e[:, :3] ** 2))), float(np.sqrt(np.mean(e[:, 3:] ** 2)))
 
 
@@ -206,7 +207,7 @@ def main(argv=None):
     n_seeds = args.seeds or (3 if args.quick else 20)
     n_null = args.null_seeds or (6 if args.quick else 60)
     mags = [float(m) for m in args.magnitudes.split(",")]
-    model = dc.pss_model(sj.nominal_geometry())
+    model = dc.model_for(sj.nominal_geometry())
     t0 = time.perf_counter()
     rows = run_group(model, None, 0.0, list(range(1000, 1000 + n_null)), args.holdout, args.alpha, args.n_random)
     print(f"null: {sum(r['named'] != 'none' for r in rows)}/{n_null} false alarms", file=sys.stderr)

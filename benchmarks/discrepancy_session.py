@@ -48,6 +48,8 @@ from _numpy_session import REGISTERED, UNREGISTERED, session  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
+from stewart_jax.calibration import make_calibration_data  # noqa: E402
+from stewart_jax.discrepancy._driver import diagnose_many, select_effects, split_rows  # noqa: E402  (the batched engine)
 
 OUTCOMES = ("named", "discovered", "absorbed", "unexplained", "wrong", "missed", "false_alarm")
 
@@ -98,13 +100,13 @@ def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
         rng = np.random.default_rng([s, c, int(noise * 10), len(family)])
         ses = session(family, geo, eff, rng, half=half, n=n_poses, sigma_um=0.1 * noise,
                       sigma_arcsec=0.1 * noise)
-        data = sj.make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
-        tr, te = dc.split_rows(n_poses, 0.3, s)
+        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        tr, te = split_rows(n_poses, 0.3, s)
         trains.append(data.take(tr))
         tests.append(data.take(te))
         meta.append((s, eff, ses.truth))
-    effects, _ = dc.select_effects(model, trains[0], len(trains[0].strokes))
-    reps = dc.diagnose_many(model, effects, trains, tests, alpha=alpha)  # one batch per seed: one compile
+    effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
+    reps = diagnose_many(model, effects, trains, tests, alpha=alpha)  # one batch per seed: one compile
     rows = []
     for (s, eff, truth), rep in zip(meta, reps, strict=True):
         rows.append({

@@ -44,19 +44,22 @@ from stewart_jax import plotting  # noqa: E402
 from stewart_jax.cable_robot import (  # noqa: E402
     PAPER_POSITIONS,
     PAPER_TABLE2,
-    cabin_modes_jit,
+    cabin_modes,
     focal_surface_point,
     lumped_modes,
     modal_summary,
     paper_fast_params,
-    run_scenario_jit,
+    run_scenario,
     smallest_feasible_tilt,
     solve_attitude,
-    static_equilibrium_jit,
+    static_equilibrium,
     workspace_map,
 )
 from stewart_jax.cable_robot._lumped import catenary_nodes  # noqa: E402
 from stewart_jax.cable_robot._lumped_scenario import lumped_scenario  # noqa: E402
+
+static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)
+run_scenario_jit = jax.jit(run_scenario, static_argnames=("duration", "dt", "start", "method"))
 
 PARAMS = paper_fast_params()
 BAND_HZ = (0.12, 0.2)

@@ -29,27 +29,30 @@ from _common import RESULTS, write_results  # noqa: E402
 import stewart_jax  # noqa: E402, F401
 from stewart_jax import plotting  # noqa: E402
 from stewart_jax.cable_robot import (  # noqa: E402
-    ATTITUDES,
     PAPER_POSITIONS,
     PAPER_TABLE2,
-    CabinState,
-    cabin_modes_jit,
-    cable_inertia_matrix,
+    cabin_modes,
     cable_string_modes,
     focal_surface_point,
-    matrix_to_quat,
-    modes_from_matrices,
     modes_map,
-    paper_fast_params,  # noqa: E402
-    rotation_vector,
-    run_scenario_jit,
-    simulate,
+    paper_fast_params,
+    run_scenario,
     smallest_feasible_tilt,
     solve_attitude,
-    static_equilibrium_jit,
-    static_lower_motion,
+    static_equilibrium,
     workspace_map,
 )
+
+# Private building blocks: the attitude names, the cables' own inertia and the eigen-solve (the
+# mass-matrix variant), and the coupled integrator with its state (the released cabin's FFT).
+from stewart_jax.cable_robot._attitude import ATTITUDES  # noqa: E402
+from stewart_jax.cable_robot._coupled import CabinState, matrix_to_quat, simulate  # noqa: E402
+from stewart_jax.cable_robot._modes import cable_inertia_matrix, modes_from_matrices  # noqa: E402
+from stewart_jax.cable_robot._scenario import rotation_vector  # noqa: E402
+from stewart_jax.cable_robot._system import static_lower_motion  # noqa: E402
+
+static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)
+run_scenario_jit = jax.jit(run_scenario, static_argnames=("duration", "dt", "start", "method"))
 
 PARAMS = paper_fast_params()
 FREE_DT, FREE_STEPS = 0.02, 3000  # 60 s of free response

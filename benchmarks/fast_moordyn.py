@@ -57,10 +57,12 @@ from stewart_jax.cable_robot import (  # noqa: E402
     lumped_modes,
     paper_fast_params,
     simulate_lumped,
-    static_equilibrium_jit,
+    static_equilibrium,
 )
 from stewart_jax.cable_robot._modes import _exp  # noqa: E402
 from stewart_jax.cable_robot._workspace import assembly_bodies  # noqa: E402
+
+static_equilibrium_jit = jax.jit(static_equilibrium)
 
 PARAMS = paper_fast_params()
 POSITIONS = ((0.0, 0.0, 140.0), (30.0, 0.0, 142.8))

@@ -39,9 +39,9 @@ from stewart_jax.calibration import (  # noqa: E402
     calibration_uncertainty,
     identifiability_report,
     perturbed,
+    plan_poses,
     predicted_control_error_std,
     reachable_travel,
-    sampling_plan_120,
     validation_poses,
 )
 from stewart_jax.mechanism import preset  # noqa: E402
@@ -62,7 +62,7 @@ def mechanisms(name: str):
 def covariance_check(name: str, trials: int) -> dict:
     nominal, actual = mechanisms(name)
     half = reachable_travel(nominal)
-    targets = sampling_plan_120(half=half)
+    targets = plan_poses("plan120", jax.random.key(0), half)
     val = validation_poses(jax.random.key(3), 42, half=half)
     keys = jax.random.split(jax.random.key(2), trials)
     t0 = time.perf_counter()
@@ -72,7 +72,7 @@ def covariance_check(name: str, trials: int) -> dict:
     ok = np.asarray(res.status == sj.optimise.RESULTS.successful)
     errs = jax.jit(jax.vmap(lambda p: sj.control_error(nominal.with_params(p), actual, val).errors))(
         res.params[ok])
-    mc = sj.error_in_report_units(errs).std(axis=0)  # (42, 6)
+    mc = sj.calibration.error_in_report_units(errs).std(axis=0)  # (42, 6)
     pred = calibration_uncertainty(actual, targets, SIGMA_UM, SIGMA_ARCSEC, val)["control_error_std"]
     ratio = np.median(mc / pred, axis=0)
     return {
@@ -93,13 +93,13 @@ def poses_needed(name: str) -> dict:
         rep = identifiability_report(nominal, poses, SIGMA_UM, SIGMA_ARCSEC)
         return float((predicted_control_error_std(nominal, val, rep.param_cov) / sigma).max())
 
-    ref = worst(sampling_plan_120(half=half))
+    ref = worst(plan_poses("plan120", jax.random.key(0), half))
     rows = []
     for m in POSE_COUNTS:
         if 6 * m < nominal.n_params:
             continue
         # three random plans of m poses in the travel (uniform), the median of their worst error
-        vals = [worst(sj.random_poses(jax.random.key(100 + 7 * m + r), m, half=half)) for r in range(3)]
+        vals = [worst(sj.calibration.random_poses(jax.random.key(100 + 7 * m + r), m, half=half)) for r in range(3)]
         rows.append({"poses": m, "worst_over_sigma": float(np.median(vals))})
     best = min(ref, rows[-1]["worst_over_sigma"])  # the better of the two 120-pose plans
     needed = next((r["poses"] for r in rows if r["worst_over_sigma"] <= 1.5 * best), None)
@@ -109,7 +109,7 @@ def poses_needed(name: str) -> dict:
 def weak_combinations(name: str) -> dict:
     nominal, _ = mechanisms(name)
     half = reachable_travel(nominal)
-    poses = sampling_plan_120(half=half)
+    poses = plan_poses("plan120", jax.random.key(0), half)
     rep = identifiability_report(nominal, poses, SIGMA_UM, SIGMA_ARCSEC, rtol=RANK_RTOL)
     names = nominal.param_names
     groups = {}

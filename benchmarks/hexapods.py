@@ -39,7 +39,7 @@ PRESETS = ("nominal", "rubin_camera", "rubin_m2", "fast_stewart")
 def ik_throughput(name: str, n: int = 65_536, repeats: int = 5) -> dict:
     m = preset(name)
     half = reachable_travel(m)
-    poses = sj.random_poses(jax.random.key(0), n, half=half)
+    poses = sj.calibration.random_poses(jax.random.key(0), n, half=half)
     f = jax.jit(lambda mm, p: mm.solve_inverse_kinematics(p).strokes)
     t0 = time.perf_counter()
     jax.block_until_ready(f(m, poses))

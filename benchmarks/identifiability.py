@@ -37,6 +37,9 @@ import numpy as np  # noqa: E402
 from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
+from stewart_jax._units import ARCSEC, COMPONENTS, UM  # noqa: E402
+from stewart_jax.calibration._identifiability import control_error_sensitivity  # noqa: E402  (what the prediction uses)
+from stewart_jax.optimise._result import status_code  # noqa: E402
 from stewart_jax.study import trial_keys  # noqa: E402
 
 HEADERS = ["dx (µm)", "dy (µm)", "dz (µm)", "φ (″)", "θ (″)", "ψ (″)"]
@@ -67,8 +70,8 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
         raise RuntimeError("forward kinematics of the true mechanism failed at a calibration pose")
     res = sj.calibration.calibrate_batch(problems, "lm-batched", noise_keys)
     errors, fk_ok = _validation_errors(res.params, nominal, actual, validation)
-    errors = sj.error_in_report_units(errors)
-    status, counts = np.unique(sj.optimise.status_code(res.status), return_counts=True)
+    errors = sj.calibration.error_in_report_units(errors)
+    status, counts = np.unique(status_code(res.status), return_counts=True)
     return {
         "errors": errors,
         "fk_ok": bool(fk_ok),
@@ -80,7 +83,7 @@ def monte_carlo(targets, noise_keys, nominal, actual, validation, sigma_um, sigm
 def predicted(covs: list[np.ndarray], M: np.ndarray, draws: int, rng: np.random.Generator) -> dict:
     """Predicted validation control error from parameter covariances (one per seed, or one
     for a fixed plan) and the sensitivity ``M`` ``(42, 6, 36)`` (mm or rad per mm)."""
-    scale = np.array([1 / sj.UM] * 3 + [1 / sj.ARCSEC] * 3)
+    scale = np.array([1 / UM] * 3 + [1 / ARCSEC] * 3)
     var = np.stack([np.einsum("nik,kl,nil->ni", M, c, M) for c in covs]) * scale**2  # (covs, 42, 6)
     per_cov = max(1, draws // len(covs))
     maxima = []
@@ -119,23 +122,23 @@ def main(argv=None) -> int:
         raise SystemExit("--sizes: the paper's plans have m = 8 (random) and m = 120 (sampling plan)")
     sigma_um = sigma_arcsec = 0.1
     nominal, actual = sj.nominal_geometry(), sj.actual_geometry()
-    validation = sj.validation_poses(jax.random.key(args.seed + 1), 42)
-    candidates = sj.random_poses(jax.random.key(args.seed + 2), args.candidates)
+    validation = sj.calibration.validation_poses(jax.random.key(args.seed + 1), 42)
+    candidates = sj.calibration.random_poses(jax.random.key(args.seed + 2), args.candidates)
     keys = trial_keys(args.seed, args.seeds)
     split = jax.vmap(lambda k: jax.random.split(k, 2))(keys)
     noise_keys, pose_keys = split[:, 0], split[:, 1]
-    M = np.asarray(sj.calibration.control_error_sensitivity(actual, validation))
+    M = np.asarray(control_error_sensitivity(actual, validation))
     rng = np.random.default_rng(args.seed)
 
     # The plans: name → (m, targets (seeds, m, 6), fixed?, planning info)
     plans: dict[str, dict] = {}
     for m in sizes:
         if m == 8:
-            per_seed = np.asarray(jax.vmap(lambda k: sj.random_poses(k, 8))(pose_keys))
+            per_seed = np.asarray(jax.vmap(lambda k: sj.calibration.random_poses(k, 8))(pose_keys))
             plans["paper8 (8 random poses, new draw per seed)"] = {"m": 8, "targets": per_seed, "fixed": False}
             plans["random 8 (one fixed paper-style draw)"] = {"m": 8, "targets": per_seed[0], "fixed": True}
         else:
-            plan120 = np.asarray(sj.calibration.sampling_plan_120())
+            plan120 = np.asarray(sj.plan_poses("plan120", jax.random.key(0)))
             plans["plan120 (Wang et al. §4)"] = {"m": 120, "targets": plan120, "fixed": True}
         for criterion in ("O1", "O3"):
             t0 = time.perf_counter()
@@ -258,7 +261,7 @@ def main(argv=None) -> int:
     print(text)
     payload = {"seeds": args.seeds, "sizes": sizes, "candidates": args.candidates, "draws": args.draws,
                "seed": args.seed, "sigma_um": sigma_um, "sigma_arcsec": sigma_arcsec, "half_width_mm": 10.0,
-               "components": list(sj.COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
+               "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
                "validation_poses": np.asarray(validation).tolist(), "plans": out, "verdicts": verdicts}
     write_results("identifiability_quick" if args.quick else "identifiability", payload, text)
     return 0

@@ -246,7 +246,7 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
 
     # --- correctness first (asserted) ---
     q_np, m_np = numpy_ik(upper, lower, v0, poses)
-    pub = jax.jit(sj.solve_inverse_kinematics)(geometry, poses_j)
+    pub = jax.jit(lambda g, p: g.solve_inverse_kinematics(p))(geometry, poses_j)
     fast = jax.jit(kb.inverse_kinematics_soa)(geometry, poses_soa)
     checks = {
         "numpy_vs_public_mm": float(np.max(np.abs(q_np - np.asarray(pub.strokes)))),
@@ -269,10 +269,10 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
         measure(lambda: numpy_ik(upper, lower, v0, poses), (), repeats))
 
     # --- public path ---
-    f, c = compile_jit(sj.solve_inverse_kinematics, (geometry, poses_j))
+    f, c = compile_jit(lambda g, p: g.solve_inverse_kinematics(p), (geometry, poses_j))
     add("jit(solve_inverse_kinematics) (N, 6)", "public path; strokes, margin, reachable", c,
         measure(f, (geometry, poses_j), repeats))
-    f, c = compile_jit(lambda g, p: sj.solve_inverse_kinematics(g, p).strokes, (geometry, poses_j))
+    f, c = compile_jit(lambda g, p: g.solve_inverse_kinematics(p).strokes, (geometry, poses_j))
     add("jit(solve_inverse_kinematics).strokes (N, 6)", "public path, strokes only", c,
         measure(f, (geometry, poses_j), repeats))
 
@@ -330,7 +330,7 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
 def fk_rows(geometry, n, repeats, rng):
     upper, lower, v0 = (np.asarray(a) for a in (geometry.upper, geometry.lower, geometry.v0))
     poses = random_poses(rng, n)
-    strokes = np.asarray(sj.solve_inverse_kinematics(geometry, poses).strokes)
+    strokes = np.asarray(geometry.solve_inverse_kinematics(poses).strokes)
     strokes_j = jnp.asarray(strokes)
     rows = []
 

@@ -35,6 +35,7 @@ import stewart_jax as sj  # noqa: E402
 
 # ahead-of-time compilation (``.lower().compile()``) needs the jitted runners themselves
 from stewart_jax.calibration._methods import _run_batch, _run_one, make_solver  # noqa: E402
+from stewart_jax.optimise._levy import mantegna_sigma  # noqa: E402
 from stewart_jax.study import simulate_trials, trial_keys  # noqa: E402
 
 
@@ -65,7 +66,7 @@ def numpy_cost(U, q, poses, v0):
 
 
 def mantegna(rng, shape, beta=1.5):
-    sigma = float(sj.optimise.mantegna_sigma(beta))
+    sigma = float(mantegna_sigma(beta))
     return rng.normal(0, sigma, shape) / np.abs(rng.normal(0, 1, shape)) ** (1 / beta)
 
 

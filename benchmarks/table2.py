@@ -25,7 +25,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import RESULTS, write_results  # noqa: E402
 
 import stewart_jax  # noqa: E402,F401
-from stewart_jax.study import METHOD_LABELS, format_study_table, run_study  # noqa: E402
+from stewart_jax.calibration import METHOD_REGISTRY  # noqa: E402
+from stewart_jax.study import format_study_table, run_study  # noqa: E402
 
 CONVERGENCE_METHODS = ("cs", "smcs", "vsa-smcs")
 
@@ -33,8 +34,9 @@ CONVERGENCE_METHODS = ("cs", "smcs", "vsa-smcs")
 def convergence_plot(result: dict, path: str) -> None:
     from stewart_jax import plotting
 
-    histories = {METHOD_LABELS[m]: result["rows"][METHOD_LABELS[m]]["history"]
-                 for m in CONVERGENCE_METHODS if METHOD_LABELS[m] in result["rows"]}
+    labels = {m: METHOD_REGISTRY[m].label for m in CONVERGENCE_METHODS}
+    histories = {labels[m]: result["rows"][labels[m]]["history"] for m in CONVERGENCE_METHODS
+                 if labels[m] in result["rows"]}
     reference = {f"{label}: median final S": result["rows"][label]["cost_median"]
                  for label in ("LM (optimistix)", "VSA-SMCS+LM") if label in result["rows"]}
     title = f"Convergence on the Wang et al. 2018 protocol ({result['plan']}, {result['n_trials']} seeds)"

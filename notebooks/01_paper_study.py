@@ -40,7 +40,8 @@ import numpy as np
 
 import stewart_jax as sj
 from stewart_jax import plotting
-from stewart_jax.study import METHOD_LABELS, PAPER_TABLE2, format_study_table, run_study, simulate_trials, trial_keys
+from stewart_jax.calibration import METHOD_REGISTRY
+from stewart_jax.study import PAPER_TABLE2, format_study_table, run_study, simulate_trials, trial_keys
 
 QUICK = os.environ.get("STEWART_JAX_QUICK", "0") not in ("", "0")
 N_TRIALS = 3 if QUICK else 100
@@ -85,13 +86,13 @@ params = {"Before calibration": problems.initial}
 for m in METHODS:
     if m in ("smcs", "vsa-smcs", "lm"):
         res = sj.calibration.calibrate_batch(problems, m, opt_keys, **options.get(m, {}))
-        params[METHOD_LABELS[m]] = res.params
+        params[METHOD_REGISTRY[m].label] = res.params
 
 per_pose = {}
 for label, p in params.items():
     err = sj.control_error(nominal.with_params(p[0]), actual, targets[0])
     assert bool(np.all(err.converged))
-    per_pose[label] = sj.error_in_report_units(err.errors)
+    per_pose[label] = sj.calibration.error_in_report_units(err.errors)
 
 fig = plotting.plot_pose_errors(
     {"Before calibration": per_pose["Before calibration"]},

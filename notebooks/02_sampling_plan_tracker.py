@@ -21,7 +21,7 @@
 # control error at the sampling points before and after calibration and at 42 other points.
 #
 # We do the same in simulation (the prototype is not available): Table 1's nominal and
-# "actual" geometries, the tracker model of `sj.calibration.default_tracker()`, LM calibration inside
+# "actual" geometries, the tracker model of `sj.calibration.tracker_for(nominal)`, LM calibration inside
 # Ω = nominal ± 10 mm (Table 1's actual values are up to 6.9 mm from nominal, so the paper's
 # experimental ±2.5 mm cannot contain them). The paper's Table 4 values are marked, but they
 # come from a different mechanism (its prototype was far closer to nominal: 20 µm before
@@ -54,8 +54,8 @@ def figure_path(name):
 
 
 nominal, actual = sj.nominal_geometry(), sj.actual_geometry()
-plan = sj.calibration.sampling_plan_120()
-tracker = sj.calibration.default_tracker()
+plan = sj.plan_poses("plan120", jax.random.key(0))  # the plan is fixed: the key is not used
+tracker = sj.calibration.tracker_for(nominal)
 print(f"quick={QUICK}: {N_TRIALS} simulated experiments; plan {plan.shape[0]} poses; "
       f"tracker: {tracker.balls.shape[0]} balls, σ = {tracker.sigma_mm * 1e3:g} µm per coordinate")
 
@@ -83,7 +83,7 @@ simulate_jit = jax.jit(lambda k: sj.simulate_measurements(k, nominal, actual, pl
 
 def simulate(key):
     k_noise, k_val = jax.random.split(key)
-    return simulate_jit(k_noise), sj.validation_poses(k_val, 42, exclude=plan)
+    return simulate_jit(k_noise), sj.calibration.validation_poses(k_val, 42, exclude=plan)
 
 
 def one_experiment(i):
@@ -97,7 +97,7 @@ def one_experiment(i):
                                ("Validation points after calibration", cal, val)):
         err = sj.control_error(geom, actual, poses)
         assert bool(np.all(err.converged))
-        rows[label] = sj.error_in_report_units(err.errors)
+        rows[label] = sj.calibration.error_in_report_units(err.errors)
     return sim, res, cal, rows
 
 
@@ -144,12 +144,12 @@ plotting.show(fig, figure_path("02_pose_errors.png"))
 # tracker's, measured from the simulation (the fitted pose minus the true pose).
 
 # %%
-pose_err = sj.error_in_report_units(np.asarray(sim0.data.poses) - np.asarray(sim0.true_poses))
+pose_err = sj.calibration.error_in_report_units(np.asarray(sim0.data.poses) - np.asarray(sim0.true_poses))
 sig_um = float(np.sqrt(np.mean(pose_err[:, :3] ** 2)))
 sig_as = float(np.sqrt(np.mean(pose_err[:, 3:] ** 2)))
 print(f"tracker pose noise (RMS over the plan): {sig_um:.3g} µm, {sig_as:.3g}″")
 rep_plan = identifiability_report(cal0, plan, sig_um, sig_as)
-rep_8 = identifiability_report(cal0, sj.random_poses(jax.random.key(1), 8), sig_um, sig_as)
+rep_8 = identifiability_report(cal0, sj.calibration.random_poses(jax.random.key(1), 8), sig_um, sig_as)
 for name, r in (("plan 120", rep_plan), ("8 random poses", rep_8)):
     print(f"{name:>15}: rank {r.rank}/36, condition number {r.condition_number:.3g}, "
           + ", ".join(f"{k} = {v:.3g}" for k, v in r.observability.items()))
@@ -162,7 +162,7 @@ plotting.show(fig, figure_path("02_singular_values.png"))
 # stroke over the plan. Which joint coordinates dominate the weakest direction:
 
 # %%
-J = np.asarray(sj.calibration.identification_jacobian(cal0, plan))
+J = np.asarray(cal0.parameter_jacobian(plan))
 Js = J / np.linalg.norm(J, axis=0)
 _, s, vt = np.linalg.svd(Js, full_matrices=False)
 names = [f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)]

@@ -51,6 +51,10 @@ def figure_path(name):
 
 
 params = cable_robot.paper_fast_params()
+# compiled once, reused at every position (the duration and step are static)
+run_scenario = jax.jit(cable_robot.run_scenario, static_argnames=("duration", "dt", "start", "method"))
+static_equilibrium = jax.jit(cable_robot.static_equilibrium)
+cabin_modes = jax.jit(cable_robot.cabin_modes)
 print(f"quick={QUICK}: duration {DURATION} s, dt {DT} s, velocity Verlet, momentum start")
 
 # %% [markdown]
@@ -59,7 +63,7 @@ print(f"quick={QUICK}: duration {DURATION} s, dt {DT} s, velocity Verlet, moment
 # %%
 runs = {}
 for pos in cable_robot.PAPER_POSITIONS:
-    res = jax.block_until_ready(cable_robot.run_scenario_jit(params, np.array(pos), duration=DURATION, dt=DT))
+    res = jax.block_until_ready(run_scenario(params, np.array(pos), duration=DURATION, dt=DT))
     runs[pos] = res
     print(f"{list(pos)} m: static equilibrium converged: {bool(res.static_ok)}; "
           f"failed catenary solves: {int(res.n_failed)}")
@@ -108,7 +112,7 @@ plotting.show(fig, figure_path("03_table2.png"))
 if QUICK:
     print("quick mode: time-step check skipped")
 else:
-    half = jax.block_until_ready(cable_robot.run_scenario_jit(params, np.array(cable_robot.PAPER_POSITIONS[0]),
+    half = jax.block_until_ready(run_scenario(params, np.array(cable_robot.PAPER_POSITIONS[0]),
                                                        duration=DURATION, dt=DT / 2))
     for name in ("correlation", "std", "amplitude"):
         a, b = float(getattr(centre, name)[0]), float(getattr(half, name)[0])
@@ -134,7 +138,7 @@ for pos in cable_robot.PAPER_POSITIONS:
     sol = cable_robot.solve_attitude(params, np.array(pos), "level")
     if not bool(sol.statics.feasible):
         sol = cable_robot.smallest_feasible_tilt(params, np.array(pos), n_axes=12, n_fan=4, tol=1e-4)
-    m = cable_robot.cabin_modes_jit(params, np.array(pos), np.asarray(sol.R), sol.statics.static)
+    m = cabin_modes(params, np.array(pos), np.asarray(sol.R), sol.statics.static)
     print(f"{str(list(pos)):>20} {sol.kind:>14} {np.rad2deg(sol.tilt_rad):8.2f} "
           f"{', '.join(f'{t / 1e3:6.1f}' for t in np.asarray(sol.statics.tension_n)):>44} "
           f"{', '.join(f'{f:.3f}' for f in np.asarray(m.frequencies_hz))}")
@@ -156,7 +160,7 @@ ws = cable_robot.workspace_map(params, positions)
 feasible = np.asarray(ws.feasible)
 f1 = np.full(len(positions), np.nan)
 for i in np.flatnonzero(feasible):
-    f1[i] = float(cable_robot.cabin_modes_jit(params, positions[i], np.eye(3),
+    f1[i] = float(cabin_modes(params, positions[i], np.eye(3),
                                               jax.tree.map(lambda a, i=i: a[i], ws.static)).frequencies_hz[0])
 print(f"{feasible.sum()} of {len(positions)} positions feasible with a level cabin; "
       f"first frequency {np.nanmin(f1):.3f}–{np.nanmax(f1):.3f} Hz")
@@ -186,8 +190,8 @@ N_SEG = 8 if QUICK else 20
 fig, ax = plt.subplots(figsize=(7.0, 4.4))
 ax.axhspan(0.12, 0.2, color="0.85", label="measured lowest mode, 0.12–0.2 Hz")
 for k, pos in enumerate(cable_robot.PAPER_POSITIONS[:3]):
-    st = cable_robot.static_equilibrium_jit(params, np.array(pos), np.eye(3))
-    qs = np.asarray(cable_robot.cabin_modes_jit(params, np.array(pos), np.eye(3), st).frequencies_hz)
+    st = static_equilibrium(params, np.array(pos), np.eye(3))
+    qs = np.asarray(cabin_modes(params, np.array(pos), np.eye(3), st).frequencies_hz)
     lm = cable_robot.lumped_modes(params, np.array(pos), N_SEG, static=st)
     s = cable_robot.modal_summary(lm, cutoff_hz=1.5)
     string = np.asarray(s.kind) == "string"

@@ -61,7 +61,7 @@ def figure_path(name):
 sim = dc.simulate_hidden_effect(SEED, EFFECT, MAGNITUDE, n_random=N_RANDOM)
 print(f"{sim.data.n_poses} poses; hidden effect {sim.truth.effect!r}, "
       f"parameters {np.round(np.asarray(sim.truth.theta) * 1e3, 3).tolist()} µm")
-model = dc.pss_model(sj.nominal_geometry(), sigma_um=0.1, sigma_arcsec=0.1)
+model = dc.model_for(sj.nominal_geometry(), sigma_um=0.1, sigma_arcsec=0.1)
 report = dc.diagnose(sim.data, model, holdout_fraction=0.3, seed=0)
 print(f"detected: {report.detected} (p = {report.detect_p_value:.3g}); named: {report.named_effect}; "
       f"indistinguishable from: {report.indistinguishable_from}")
@@ -107,12 +107,12 @@ plotting.show(fig, figure_path("04_gap.png"))
 rng = np.random.default_rng(123)
 targets = rng.uniform(-1, 1, (42, 6)) * np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3)
 cond = dc.random_conditions(rng, 42)
-rows = sj.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)
+rows = sj.calibration.make_calibration_data(np.zeros((42, 6)), targets, cond.directions, cond.temperature, cond.time)
 ctrl = {}
 for label, fitted in (("base model", report.base_fitted), (f"+ {report.named_effect}", report.fitted)):
     err = dc.true_control_error(sim.truth, np.asarray(fitted.commanded(rows)), targets, cond)
-    ctrl[label] = sj.error_in_report_units(err)
+    ctrl[label] = sj.calibration.error_in_report_units(err)
     print(f"{label:>16}: RMS control error " + ", ".join(
-        f"{c} {v:.3g}" for c, v in zip(plotting.COMPONENT_LABELS, np.sqrt(np.mean(ctrl[label] ** 2, 0)), strict=True)))
+        f"{c} {v:.3g}" for c, v in zip(("dx", "dy", "dz", "φ", "θ", "ψ"), np.sqrt(np.mean(ctrl[label] ** 2, 0)), strict=True)))
 fig = plotting.plot_pose_errors(ctrl, title="true control error at 42 fresh poses (µm, ″)")
 plotting.show(fig, figure_path("04_control_error.png"))

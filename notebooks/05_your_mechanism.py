@@ -105,8 +105,8 @@ print("largest parameter corrections:",
       ", ".join(f"{nominal.param_names[k]} {moved[k]:+.3f}" for k in np.argsort(-np.abs(moved))[:5]))
 
 # %%
-res_before = np.asarray(sj.stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * 1e3
-res_after = np.asarray(sj.stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * 1e3
+res_before = np.asarray(problem.residuals(nominal.params)).reshape(-1, 6) * 1e3
+res_after = np.asarray(problem.residuals(result.params)).reshape(-1, 6) * 1e3
 fig = plotting.plot_stroke_residuals({"nominal geometry": res_before, "calibrated": res_after},
                                      title="stroke residuals q' − IK(P', u) before and after calibration")
 plotting.show(fig, figure_path("05_stroke_residuals.png"))

@@ -1,7 +1,8 @@
 """stewart_jax: kinematics, calibration and dynamics of hexapods (Stewart platforms) in JAX.
 
-The top level holds the core a user needs to move, simulate and calibrate a mechanism; the rest
-lives in named subpackages:
+The top level holds the core a user needs to move, simulate and calibrate a mechanism (presets
+and geometry files, forward and inverse kinematics, the measurement CSV, simulated measurements,
+``calibrate`` and the control error); the rest lives in named subpackages:
 
 - :mod:`stewart_jax.mechanism` — the mechanism abstraction, its families and presets, kinematics
   and the batched fast paths;
@@ -14,7 +15,9 @@ lives in named subpackages:
 - :mod:`stewart_jax.cable_robot` — the FAST cable-driven feed support (Yin et al.);
 - :mod:`stewart_jax.plotting` — figures (needs matplotlib).
 
-The last three are imported on first use.
+The last three are imported on first use. A name that left the public surface still answers
+from its old place with a ``DeprecationWarning`` naming its replacement (``stewart_jax._moved``;
+the table is ``docs/api/moved.md``).
 
 NOTE: importing the package enables ``jax_enable_x64`` once: calibration carries micrometres
 over 100 mm (1e-5 relative), which float32 cannot hold. Every array the library creates is
@@ -28,46 +31,25 @@ import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
-from . import calibration as calibration, mechanism as mechanism, optimise as optimise, study as study
+from . import _moved, calibration as calibration, mechanism as mechanism, optimise as optimise, study as study
 from ._math import euler_angles as euler_angles, rotation_matrix as rotation_matrix
-from ._units import (
-    ARCSEC as ARCSEC,
-    COMPONENTS as COMPONENTS,
-    UM as UM,
-    error_in_report_units as error_in_report_units,
-)
 from .calibration import (
-    METHODS as METHODS,
-    CalibrationData as CalibrationData,
     calibrate as calibrate,
-    calibration_cost as calibration_cost,
     calibration_problem as calibration_problem,
     control_error as control_error,
-    make_calibration_data as make_calibration_data,
     plan_poses as plan_poses,
-    random_poses as random_poses,
     read_csv as read_csv,
     simulate_measurements as simulate_measurements,
-    stroke_residuals as stroke_residuals,
     summarize_control_error as summarize_control_error,
-    validation_poses as validation_poses,
     write_csv as write_csv,
 )
 from .mechanism import (
-    AbstractMechanism as AbstractMechanism,
-    FKSolution as FKSolution,
-    Geometry as Geometry,
-    IKSolution as IKSolution,
-    PSSMechanism as PSSMechanism,
     actual_geometry as actual_geometry,
     forward_kinematics as forward_kinematics,
-    geometry_from_params as geometry_from_params,
     inverse_kinematics as inverse_kinematics,
-    kinematic_jacobian as kinematic_jacobian,
     load_mechanism as load_mechanism,
     nominal_geometry as nominal_geometry,
     save_mechanism as save_mechanism,
-    solve_inverse_kinematics as solve_inverse_kinematics,
 )
 
 _LAZY = ("cable_robot", "discrepancy", "plotting")
@@ -81,8 +63,8 @@ except _PackageNotFoundError:  # running from a source tree that was never insta
 def __getattr__(name: str):
     if name in _LAZY:
         return _importlib.import_module(f".{name}", __name__)
-    raise AttributeError(f"module 'stewart_jax' has no attribute {name!r}")
+    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
 
 
 def __dir__():
-    return sorted([*globals(), *_LAZY])
+    return sorted({*globals(), *_LAZY})

@@ -54,3 +54,20 @@ def valid_poses(poses: Array) -> Array:
     """``Bool[Array, "..."]``: every component finite and every angle within ``MAX_ANGLE_RAD``;
     traceable, so that jitted kinematics report a NaN or degree-valued pose as unreachable."""
     return jnp.all(jnp.isfinite(poses), axis=-1) & jnp.all(jnp.abs(poses[..., 3:]) <= MAX_ANGLE_RAD, axis=-1)
+
+
+def field_array(x: ArrayLike, owner: str, name: str, shape: tuple[int, ...], *, positive: bool = False) -> Array:
+    """A mechanism family's array field: float64 with trailing shape ``shape``, finite (and > 0
+    with ``positive``), each failure naming ``owner.name``; a tracer (the family built under
+    ``jit``/``vmap`` from checked values) passes unchecked."""
+    if isinstance(x, jax.core.Tracer):
+        return x
+    a = np.asarray(x, dtype=np.float64)
+    if a.shape[a.ndim - len(shape):] != shape or a.ndim < len(shape):
+        raise ValueError(f"{owner}.{name} must have shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{owner}.{name} contains NaN or inf: {a.tolist()}")
+    if positive and np.any(a <= 0):
+        bad = np.flatnonzero(a.reshape(-1) <= 0)
+        raise ValueError(f"{owner}.{name} must be positive, got {a.reshape(-1)[bad].tolist()} at {bad.tolist()}")
+    return jnp.asarray(a)

@@ -9,7 +9,7 @@ import pytest
 
 import stewart_jax as sj
 from stewart_jax._cli import main
-from stewart_jax.calibration import perturbed, reachable_travel, sampling_plan_120, tracker_for
+from stewart_jax.calibration import perturbed, reachable_travel, tracker_for
 from stewart_jax.mechanism import preset, presets
 
 
@@ -17,10 +17,13 @@ def test_paper_travel_and_plans_are_unchanged():
     g = sj.nominal_geometry()
     half = reachable_travel(g)
     np.testing.assert_array_equal(half, [1.0, 1.0, 1.0] + [np.deg2rad(1.0)] * 3)
-    np.testing.assert_array_equal(sampling_plan_120(half=half), sampling_plan_120())
     key = jax.random.key(4)
+    np.testing.assert_array_equal(sj.plan_poses("plan120", key, half), sj.plan_poses("plan120", key))
     np.testing.assert_array_equal(sj.plan_poses("paper8", key, half), sj.plan_poses("paper8", key))
-    np.testing.assert_array_equal(tracker_for(g).balls, sj.calibration.default_tracker().balls)
+    # the documented layout for the paper's mechanism: r = 100 mm, 90 mm above A's origin, at 90°, 210°, 330°
+    ang = np.deg2rad([90.0, 210.0, 330.0])
+    balls = np.stack([100.0 * np.cos(ang), 100.0 * np.sin(ang), np.full(3, 90.0)], -1)
+    np.testing.assert_array_equal(tracker_for(g).balls, balls)
 
 
 @pytest.mark.parametrize("name", presets())
@@ -28,10 +31,12 @@ def test_reachable_travel_is_reachable_and_inside_the_published_one(name):
     m = preset(name)
     half = reachable_travel(m)
     published = m.travel_half_widths
+    if published is None:  # truly optional: the paper's ±1 mm / ±1° box stands in
+        published = np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3)
     assert np.all(half <= published + 1e-15) and np.all(half > 0)
-    plan = sampling_plan_120(half=half)
+    plan = sj.plan_poses("plan120", jax.random.key(0), half)
     assert bool(np.all(np.asarray(m.solve_inverse_kinematics(plan).reachable)))
-    poses = sj.random_poses(jax.random.key(0), 256, half=half)
+    poses = sj.calibration.random_poses(jax.random.key(0), 256, half=half)
     assert bool(np.all(np.asarray(m.solve_inverse_kinematics(poses).reachable)))
     # the bisection stops at the edge: 1 % more travel leaves some corner unreachable, unless the
     # whole published travel was reachable
@@ -65,7 +70,7 @@ def test_strut_hexapod_file_through_the_command_line(tmp_path, capsys):
     np.testing.assert_array_equal(calibrated.params, res["params"])
     # the calibrated model commands the true mechanism far better than the nominal one, at
     # poses it was not calibrated on
-    val = sj.validation_poses(jax.random.key(9), 42, half=reachable_travel(nominal))
+    val = sj.calibration.validation_poses(jax.random.key(9), 42, half=reachable_travel(nominal))
     before = np.abs(np.asarray(sj.control_error(nominal, true, val).errors)).max()
     after = np.abs(np.asarray(sj.control_error(calibrated, true, val).errors)).max()
     assert after < 0.05 * before, (before, after)

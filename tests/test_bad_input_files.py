@@ -206,7 +206,7 @@ def test_the_travel_cut_is_measured_against_the_same_struts_without_limits():
 def m2_data():
     """8 poses of the Rubin M2 hexapod measured with σ = 0.1 µm / 0.1″ (its true geometry)."""
     m = preset("rubin_m2")
-    targets = sj.random_poses(jax.random.key(1), 8, half=tuple(sj.calibration.reachable_travel(m)))
+    targets = sj.calibration.random_poses(jax.random.key(1), 8, half=tuple(sj.calibration.reachable_travel(m)))
     return m, sj.simulate_measurements(jax.random.key(2), m, m, targets).data
 
 
@@ -220,7 +220,7 @@ def test_radians_under_a_degree_header_are_a_gross_misfit_even_with_few_degrees_
     """Class: angles in the wrong unit with 48 readings for 42 parameters: the χ² test has 6
     degrees of freedom and absorbs most of the misfit; the whitened residual does not."""
     m, data = m2_data
-    wrong = sj.make_calibration_data(data.strokes, data.poses * jnp.array([1.0] * 3 + [np.pi / 180] * 3))
+    wrong = sj.calibration.make_calibration_data(data.strokes, data.poses * jnp.array([1.0] * 3 + [np.pi / 180] * 3))
     a = assess_calibration(m, wrong, 0.1, 0.1)
     assert a.status == "poor_fit"
     gross = [w for w in a.warnings if w.startswith("gross misfit")]
@@ -231,11 +231,11 @@ def test_a_gross_misfit_outranks_rank_deficiency(m2_data):
     """Class: too few poses (rank-deficient) *and* the wrong geometry: the report must not hide
     the misfit behind "rank_deficient"."""
     m, data = m2_data
-    few = sj.make_calibration_data(data.strokes[:3], data.poses[:3])
+    few = sj.calibration.make_calibration_data(data.strokes[:3], data.poses[:3])
     a = assess_calibration(preset("rubin_camera"), few, 0.1, 0.1)  # the camera hexapod's geometry for M2 data
     assert a.status == "poor_fit" and a.rank < a.n_params
     assert any(w.startswith("gross misfit") for w in a.warnings)
-    from stewart_jax.calibration import calibration_report
+    from stewart_jax.calibration._report import calibration_report  # private: what `calibrate --report` writes
 
     report = calibration_report(source={"data": "m2.csv"}, nominal=m, calibrated=m, assessment=a, heldout=None,
                                 result={"status": "success", "n_poses": 3, "cost": 1.0, "rms_residual_um": 1.0},

@@ -9,12 +9,14 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import stewart_jax  # noqa: F401  (enables float64)
-from stewart_jax.cable_robot import (
-    CableParams,
+from stewart_jax.cable_robot import CableParams, solve_catenary
+
+# The catenary's private building blocks (eqs. 6–13 forward, their Jacobian, the two starts),
+# each tested against an independent integration, finite differences or a round trip.
+from stewart_jax.cable_robot._catenary import (
     catenary_jacobian,
     catenary_upper_end,
     peyrot_goulois_start,
-    solve_catenary,
     straight_bar_start,
 )
 

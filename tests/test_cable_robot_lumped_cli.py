@@ -4,13 +4,16 @@ test_cable_robot_lumped.py)."""
 
 import json
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import stewart_jax  # noqa: F401
 from stewart_jax._cli import build_parser, main
-from stewart_jax.cable_robot import cabin_modes_jit, paper_fast_params, static_equilibrium_jit
+from stewart_jax.cable_robot import cabin_modes, paper_fast_params, static_equilibrium
+
+static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)
 
 
 def test_quasi_static_stays_the_default():

@@ -2,12 +2,15 @@
 cables of 1 % of their mass it reproduces the coupled quasi-static simulation (an independent
 model: catenaries re-solved every step, the legs' inertia along the moving cabin)."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 import stewart_jax  # noqa: F401
-from stewart_jax.cable_robot import CableParams, paper_fast_params, run_scenario_jit
+from stewart_jax.cable_robot import CableParams, paper_fast_params, run_scenario
 from stewart_jax.cable_robot._lumped_scenario import lumped_scenario
+
+run_scenario_jit = jax.jit(run_scenario, static_argnames=("duration", "dt", "start", "method"))
 
 
 def test_light_cables_reproduce_the_quasi_static_scenario():

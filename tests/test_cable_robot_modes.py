@@ -13,21 +13,24 @@ from scipy.linalg import eigh_tridiagonal
 
 import stewart_jax  # noqa: F401
 from stewart_jax.cable_robot import (
-    CabinState,
-    assembly_centre_of_mass,
-    cabin_modes_jit,
-    cabin_residual,
-    cable_deltas,
+    cabin_modes,
     cable_string_modes,
-    matrix_to_quat,
     paper_fast_params,
-    rotation_from_vector,
-    rotation_vector,
-    simulate,
     solve_catenary,
-    static_equilibrium_jit,
-    static_lower_motion,
+    static_equilibrium,
 )
+
+# The model's private building blocks: the equations of motion (for the stiffness by finite
+# differences), the assembly's centre of mass, and the coupled integrator with its state (the
+# released cabin whose FFT checks the lowest frequency).
+from stewart_jax.cable_robot._attitude import rotation_from_vector
+from stewart_jax.cable_robot._coupled import CabinState, matrix_to_quat, simulate
+from stewart_jax.cable_robot._scenario import rotation_vector
+from stewart_jax.cable_robot._system import cabin_residual, cable_deltas, static_lower_motion
+from stewart_jax.cable_robot._workspace import assembly_centre_of_mass
+
+static_equilibrium_jit = jax.jit(static_equilibrium)
+cabin_modes_jit = jax.jit(cabin_modes)
 
 PARAMS = paper_fast_params()
 M_TOTAL = 25731.0 + 2371.0 + 6 * (165.34 + 60.12)  # Table 1: cabin, lower platform, legs

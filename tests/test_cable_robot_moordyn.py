@@ -6,6 +6,7 @@ release from a displaced pose. Skipped where the ``moordyn`` wheel is not instal
 import sys
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -19,8 +20,10 @@ from stewart_jax.cable_robot import (  # noqa: E402
     lumped_modes,
     paper_fast_params,
     simulate_lumped,
-    static_equilibrium_jit,
+    static_equilibrium,
 )
+
+static_equilibrium_jit = jax.jit(static_equilibrium)
 
 PARAMS = paper_fast_params()
 POS = jnp.array([30.0, 0.0, 142.8])  # off the axis of symmetry

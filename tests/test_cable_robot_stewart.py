@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 import stewart_jax  # noqa: F401
-from stewart_jax.cable_robot import (
+
+# The platform's Newton–Euler dynamics is a private building block of the coupled model
+# (run_scenario), tested here on its own.
+from stewart_jax.cable_robot._stewart import (
     LowerMotion,
     UpperMotion,
     paper_stewart_params,

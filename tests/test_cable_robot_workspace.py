@@ -3,6 +3,7 @@ P., Chen M., Yao R., *Dynamic modeling of a cable-driven parallel robot with a S
 for use in FAST*): statics checked against closed forms and independent integrations, the
 physical branch, and the attitude searches against brute-force neighbours."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -12,22 +13,27 @@ from scipy.optimize import minimize_scalar
 import stewart_jax  # noqa: F401
 from stewart_jax.cable_robot import (
     WORKSPACE_STATUS,
-    anchor_positions,
-    assembly_centre_of_mass,
-    assess,
     cabin_statics,
     focal_surface_point,
-    max_min_tension_attitude,
     paper_fast_params,
-    reflector_clearance,
-    rotation_from_vector,
     smallest_feasible_tilt,
-    static_equilibrium_jit,
+    static_equilibrium,
+    workspace_map,
+)
+
+# Private building blocks tested against closed forms and brute force: the reflector's geometry,
+# the assembly's centre of mass, the compiled statics (assess, cabin_statics' fast form), the
+# attitudes solve_attitude dispatches to (with their own search settings) and rotation helpers.
+from stewart_jax.cable_robot._attitude import (
+    max_min_tension_attitude,
+    rotation_from_vector,
     tilt_angle,
     towards_centre_attitude,
-    workspace_map,
-    zenith_angle,
 )
+from stewart_jax.cable_robot._system import anchor_positions
+from stewart_jax.cable_robot._workspace import assembly_centre_of_mass, assess, reflector_clearance, zenith_angle
+
+static_equilibrium_jit = jax.jit(static_equilibrium)
 
 PARAMS = paper_fast_params()
 M_TOTAL = 25731.0 + 2371.0 + 6 * (165.34 + 60.12)  # Table 1: cabin, lower platform, legs

@@ -2,7 +2,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import travel_grid
+from conftest import ARCSEC, travel_grid
 
 import stewart_jax as sj
 
@@ -16,15 +16,15 @@ def noise_free(nominal, actual):
 
 def test_residual_vanishes_at_true_parameters(noise_free, actual, nominal):
     data = noise_free.data
-    r_true = sj.stroke_residuals(actual.params, data, actual)
-    r_nom = sj.stroke_residuals(nominal.params, data, nominal)
+    r_true = sj.calibration_problem(data, actual).residuals(actual.params)
+    r_nom = sj.calibration_problem(data, nominal).residuals(nominal.params)
     assert r_true.shape == (48,)
     # The true poses come from FK, converged to max|IK(P) − q| ≤ 1e-12 mm.
     assert np.abs(np.asarray(r_true)).max() <= 1e-12
     assert np.abs(np.asarray(r_nom)).max() > 1e-3
     # S is the sum of squared residuals (eq. 9), computed here from eq. 7 by hand.
     by_hand = np.sum((np.asarray(data.strokes) - np.asarray(sj.inverse_kinematics(nominal, data.poses))) ** 2)
-    np.testing.assert_allclose(sj.calibration_cost(nominal.params, data, nominal), by_hand, rtol=1e-14)
+    np.testing.assert_allclose(sj.calibration_problem(data, nominal).cost(nominal.params), by_hand, rtol=1e-14)
 
 
 def test_cost_is_inf_where_a_pose_becomes_unreachable(noise_free, nominal):
@@ -32,14 +32,16 @@ def test_cost_is_inf_where_a_pose_becomes_unreachable(noise_free, nominal):
     # Ac_1 level with Bc_1: the rod is horizontal at the zero pose (L from the zero pose), so
     # any pose moving the joint outward by a few µm is beyond the rod's reach.
     bad[2] = bad[20] + 1e-3
-    assert np.isinf(float(sj.calibration_cost(jnp.asarray(bad), noise_free.data, nominal)))
-    assert np.all(np.isfinite(np.asarray(sj.stroke_residuals(jnp.asarray(bad), noise_free.data, nominal))))
+    problem = sj.calibration_problem(noise_free.data, nominal)
+    assert np.isinf(float(problem.cost(jnp.asarray(bad))))
+    assert np.all(np.isfinite(np.asarray(problem.residuals(jnp.asarray(bad)))))
 
 
 def test_cost_vmaps_over_population(noise_free, nominal, actual):
     pop = jnp.stack([nominal.params, actual.params, 0.5 * (nominal.params + actual.params)])
-    batched = jax.vmap(sj.calibration_cost, in_axes=(0, None, None))(pop, noise_free.data, nominal)
-    one_by_one = [sj.calibration_cost(p, noise_free.data, nominal) for p in pop]
+    problem = sj.calibration_problem(noise_free.data, nominal)
+    batched = jax.vmap(problem.cost)(pop)
+    one_by_one = [problem.cost(p) for p in pop]
     np.testing.assert_allclose(batched, one_by_one, rtol=1e-15)
 
 
@@ -68,8 +70,8 @@ def test_lm_reaches_noise_floor_on_paper_protocol(nominal, actual):
     problem = sj.calibration_problem(sim.data, nominal)
     res = sj.calibrate(problem, "lm-batched")
     s0 = float(problem.cost(problem.initial))
-    J = jax.vmap(sj.kinematic_jacobian, in_axes=(None, 0))(actual, sim.true_poses)
-    scale = np.array([1e-4] * 3 + [0.1 * sj.ARCSEC] * 3)
+    J = actual.ik_and_jacobian(sim.true_poses)[2]
+    scale = np.array([1e-4] * 3 + [0.1 * ARCSEC] * 3)
     sigma_q2 = np.mean(np.sum((np.asarray(J) * scale) ** 2, axis=-1))
     expected = sigma_q2 * (48 - 36)
     assert bool(res.status == sj.optimise.RESULTS.successful)
@@ -87,4 +89,4 @@ def test_problem_needs_enough_poses(noise_free, nominal):
     with pytest.raises(ValueError, match="at least 6 poses"):
         sj.calibration_problem(noise_free.data.take(np.arange(5)), nominal)
     with pytest.raises(ValueError, match="positive"):
-        sj.calibration.feasible_box(nominal, 0.0)
+        sj.calibration_problem(noise_free.data, nominal, half_width=0.0)

@@ -18,11 +18,23 @@ import numpy as np
 import pytest
 import scipy.stats
 from _numpy_reference import rotation
+from conftest import ARCSEC, UM
 
 import stewart_jax as sj
-from stewart_jax import discrepancy as dc
+from stewart_jax import discrepancy as dc, plotting
+from stewart_jax.calibration import make_calibration_data
 
-EFFECTS = dc.effect_names(dc.PSS_MODEL_NAME)
+# The workflow's private building blocks, tested on their own against independent numbers: the
+# 6-PSS model's leg (against the library's IK and the leg constraint), the statistics (against
+# SciPy and Monte Carlo), the absorption and "where" analyses, and the candidate selection.
+from stewart_jax.discrepancy._driver import select_effects
+from stewart_jax.discrepancy._pss import pss_strokes
+from stewart_jax.discrepancy._statistics import chi2_sf, f_sf, heldout_chi2, where_analysis
+from stewart_jax.discrepancy._subspace import absorption
+
+MODEL = "6-pss"  # the 6-PSS model's name, the key of its effects
+EFFECTS = dc.effect_names(MODEL)
+T_REF_C = 20.0  # the thermal effect's reference temperature (docs/discrepancy.md)
 N_RANDOM = 40
 MAGNITUDE = 5.0
 SEED = 7
@@ -30,7 +42,7 @@ SEED = 7
 
 @pytest.fixture(scope="module")
 def model():
-    return dc.pss_model(sj.nominal_geometry())
+    return dc.model_for(sj.nominal_geometry())
 
 
 @pytest.fixture(scope="module")
@@ -53,14 +65,14 @@ def test_pss_strokes_matches_library_ik_and_leg_constraint():
     poses = rng.uniform(-1, 1, (30, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
     up, lo, v0 = g.upper, g.lower, g.v0
     ez = jnp.broadcast_to(jnp.array([0.0, 0.0, 1.0]), (6, 3))
-    q = dc.pss_strokes(up, lo, v0, ez, jnp.zeros((30, 6)), jnp.asarray(poses))
+    q = pss_strokes(up, lo, v0, ez, jnp.zeros((30, 6)), jnp.asarray(poses))
     np.testing.assert_allclose(q, sj.inverse_kinematics(g, poses), atol=1e-12)
     # Tilted axes and changed rod lengths: |a − Bc − q n| = L + ΔL, checked directly.
     ang = rng.uniform(-1e-2, 1e-2, (6, 2))
     n = np.stack([np.cos(ang[:, 0]) * np.sin(ang[:, 1]), -np.sin(ang[:, 0]), np.cos(ang[:, 0]) * np.cos(ang[:, 1])], -1)
     dl = rng.uniform(-0.05, 0.05, (30, 6))
-    q = np.asarray(dc.pss_strokes(up, lo, v0, jnp.asarray(n), jnp.asarray(dl), jnp.asarray(poses)))
-    a = np.asarray(sj.mechanism.upper_joints_in_base(g, jnp.asarray(poses)))
+    q = np.asarray(pss_strokes(up, lo, v0, jnp.asarray(n), jnp.asarray(dl), jnp.asarray(poses)))
+    a = np.asarray(g.moving_joints(jnp.asarray(poses)))
     leg = a - np.asarray(lo) - q[..., None] * n
     length = np.linalg.norm(np.asarray(up) + np.asarray(v0) - np.asarray(lo), axis=-1) + dl
     np.testing.assert_allclose(np.linalg.norm(leg, axis=-1), length, rtol=0, atol=1e-10)
@@ -88,7 +100,7 @@ def _oracle(effect, t, g, true_poses, d):
     l0 = np.linalg.norm(up + v0 - lo, axis=-1)
     length = np.broadcast_to(l0, (len(true_poses), 6))
     if effect == "thermal_expansion":
-        length = l0 * (1.0 + t * (np.asarray(d.temperature)[:, None] - dc.T_REF_C))
+        length = l0 * (1.0 + t * (np.asarray(d.temperature)[:, None] - T_REF_C))
     w = np.einsum("mij,lj->mli", rotation(true_poses[:, 3:]), up) + true_poses[:, None, :3] + v0 - lo
     nw = np.einsum("li,mli->ml", axes, w)
     q = nw - np.sqrt(nw**2 - np.sum(w**2, -1) + length**2)
@@ -116,8 +128,8 @@ def test_effect_is_identity_at_zero_and_reproduces_the_simulation(effect):
     prediction at the true θ is the simulated readings."""
     g = sj.actual_geometry()
     sim = dc.simulate_hidden_effect(3, effect, 5.0, n_random=12, plan=False, noise=False)
-    m = dc.pss_model(g)
-    e = dc.get_effect(dc.PSS_MODEL_NAME, effect)
+    m = dc.model_for(g)
+    e = dc.get_effect(MODEL, effect)
     zero = m.predict(g.params, (e,), (jnp.zeros(e.n_params),), sim.data)
     np.testing.assert_allclose(zero, sj.inverse_kinematics(g, sim.data.poses), atol=1e-12)
     pred = m.predict(g.params, (e,), (jnp.asarray(sim.truth.theta),), sim.data)
@@ -136,7 +148,7 @@ def test_simulated_mechanism_matches_independent_physics(effect):
     rng = np.random.default_rng(6)
     cond = dc.random_conditions(rng, 5)
     targets = rng.uniform(-0.5, 0.5, (5, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
-    data = sj.make_calibration_data(np.zeros((5, 6)), targets, cond.directions, cond.temperature, cond.time)
+    data = make_calibration_data(np.zeros((5, 6)), targets, cond.directions, cond.temperature, cond.time)
     q_true, _ = _oracle(effect if effect != "tracker_misalignment" else None, np.asarray(sim.truth.theta), g,
                         targets, data)
     np.testing.assert_allclose(dc.true_control_error(sim.truth, q_true, targets, cond), 0.0, atol=1e-10)
@@ -145,19 +157,19 @@ def test_simulated_mechanism_matches_independent_physics(effect):
 def test_whitener_inverts_the_pose_noise_covariance(model):
     rng = np.random.default_rng(1)
     poses = rng.uniform(-1, 1, (5, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
-    data = sj.make_calibration_data(np.zeros((5, 6)), poses)
-    w = np.asarray(model.whitener(model.nominal, data))
+    data = make_calibration_data(np.zeros((5, 6)), poses)
+    w = np.asarray(model.whitener(model.base_initial, data))
     h = 1e-6
     g = sj.nominal_geometry()
     jac = np.stack([(np.asarray(sj.inverse_kinematics(g, poses + h * np.eye(6)[k]))
                      - np.asarray(sj.inverse_kinematics(g, poses - h * np.eye(6)[k]))) / (2 * h) for k in range(6)], -1)
-    sig = np.array([0.1e-3] * 3 + [0.1 * sj.ARCSEC] * 3)
+    sig = np.array([0.1e-3] * 3 + [0.1 * ARCSEC] * 3)
     cov = np.einsum("mik,k,mjk->mij", jac, sig**2, jac)
     np.testing.assert_allclose(np.einsum("mij,mjk,mlk->mil", w, cov, w), np.broadcast_to(np.eye(6), (5, 6, 6)),
                                atol=1e-6)
     # The model's covariance agrees with J Σ Jᵀ from the analytic kinematic Jacobian.
-    ja = np.asarray(sj.kinematic_jacobian(g, jnp.asarray(poses)))
-    np.testing.assert_allclose(model.noise_covariance(model.nominal, data),
+    ja = np.asarray(g.ik_and_jacobian(jnp.asarray(poses))[2])
+    np.testing.assert_allclose(model.noise_covariance(model.base_initial, data),
                                np.einsum("mik,k,mjk->mij", ja, sig**2, ja), rtol=1e-10, atol=1e-22)
 
 
@@ -166,9 +178,9 @@ def test_whitener_inverts_the_pose_noise_covariance(model):
 
 def test_distribution_tails_match_scipy():
     for x, k in ((3.0, 2), (250.0, 240), (1e-3, 6)):
-        assert dc.chi2_sf(x, k) == pytest.approx(scipy.stats.chi2.sf(x, k), rel=1e-9)
+        assert chi2_sf(x, k) == pytest.approx(scipy.stats.chi2.sf(x, k), rel=1e-9)
     for x, d1, d2 in ((2.0, 6, 100), (0.5, 1, 10), (1.2, 300, 700)):
-        assert dc.f_sf(x, d1, d2) == pytest.approx(scipy.stats.f.sf(x, d1, d2), rel=1e-8)
+        assert f_sf(x, d1, d2) == pytest.approx(scipy.stats.f.sf(x, d1, d2), rel=1e-8)
 
 
 def test_heldout_statistic_is_chi2_with_n_test_dof_under_a_linear_model():
@@ -182,7 +194,7 @@ def test_heldout_statistic_is_chi2_with_n_test_dof_under_a_linear_model():
     for _ in range(4000):
         e_tr, e_te = rng.standard_normal(n_tr), rng.standard_normal(n_te)
         u_hat = np.linalg.lstsq(a_tr, e_tr, rcond=None)[0]
-        stats.append(dc.heldout_chi2(e_te - a_te @ u_hat, a_tr, a_te))
+        stats.append(heldout_chi2(e_te - a_te @ u_hat, a_tr, a_te))
     stats = np.asarray(stats)
     assert abs(stats.mean() - n_te) < 4 * np.sqrt(2 * n_te / len(stats))
     assert abs(stats.var() / (2 * n_te) - 1) < 0.1
@@ -193,11 +205,11 @@ def test_absorption_of_spanned_and_orthogonal_columns():
     rng = np.random.default_rng(3)
     g = rng.standard_normal((50, 8))
     inside = g @ rng.standard_normal((8, 3))
-    ab = dc.absorption(g, inside)
+    ab = absorption(g, inside)
     assert ab.completely_absorbed and ab.absorbed_fraction == pytest.approx(1.0) and max(ab.sines) < 1e-7
     q, _ = np.linalg.qr(g, mode="complete")
     outside = q[:, 8:11] * np.array([1.0, 5.0, 0.1])
-    ab = dc.absorption(g, outside)
+    ab = absorption(g, outside)
     assert ab.identifiable_rank == 3 and ab.absorbed_fraction == pytest.approx(0.0, abs=1e-12)
     np.testing.assert_allclose(ab.sines, 1.0, atol=1e-12)
 
@@ -207,7 +219,7 @@ def test_where_analysis_flags_a_dependence():
     x = rng.uniform(17, 23, (80, 1)) * np.ones((1, 6))
     res = rng.standard_normal((80, 6))
     res[:, 2] += 2.0 * (x[:, 2] - 20)
-    out = dc.where_analysis(res, {"temperature_C": x}, [f"leg{i}" for i in range(1, 7)], 0.05)
+    out = where_analysis(res, {"temperature_C": x}, [f"leg{i}" for i in range(1, 7)], 0.05)
     assert out.flags[0].output == "leg3" and out.flags[0].p_value < 1e-20
     assert all(f.p_value > 1e-4 for f in out.flags[1:])
     assert out.factors["temperature_C"].slope[2] == pytest.approx(2.0, abs=0.2)
@@ -250,7 +262,7 @@ def test_fitted_effect_parameters_recover_the_truth(reports, hidden):
     ones within a few standard errors (σ_b ≈ 2·σ_q/√m ≈ 0.1 µm here)."""
     rep, truth = reports["backlash"], hidden["backlash"].truth
     fitted = np.asarray(rep.fitted.thetas[0])
-    np.testing.assert_allclose(fitted / sj.UM, truth.theta / sj.UM, atol=0.25)
+    np.testing.assert_allclose(fitted / UM, truth.theta / UM, atol=0.25)
 
 
 def test_augmented_model_improves_true_control(reports, hidden):
@@ -258,7 +270,7 @@ def test_augmented_model_improves_true_control(reports, hidden):
     rng = np.random.default_rng(5)
     targets = rng.uniform(-1, 1, (20, 6)) * np.array([1, 1, 1, 0.017, 0.017, 0.017])
     cond = dc.random_conditions(rng, 20)
-    data = sj.make_calibration_data(np.zeros((20, 6)), targets, cond.directions, cond.temperature, cond.time)
+    data = make_calibration_data(np.zeros((20, 6)), targets, cond.directions, cond.temperature, cond.time)
     before = dc.true_control_error(sim.truth, np.asarray(rep.base_fitted.commanded(data)), targets, cond)
     after = dc.true_control_error(sim.truth, np.asarray(rep.fitted.commanded(data)), targets, cond)
     assert np.sqrt(np.mean(after[:, :3] ** 2)) < 0.3 * np.sqrt(np.mean(before[:, :3] ** 2))
@@ -268,12 +280,12 @@ def test_commanded_strokes_of_backlash_model(reports):
     fm = reports["backlash"].fitted
     targets = np.zeros((2, 6))
     dirs = np.array([[1.0] * 6, [-1.0] * 6])
-    data = sj.make_calibration_data(np.zeros((2, 6)), targets, directions=dirs)
+    data = make_calibration_data(np.zeros((2, 6)), targets, directions=dirs)
     q = np.asarray(fm.commanded(data))
     b = np.asarray(fm.thetas[0])
     np.testing.assert_allclose(q, 0.5 * b * dirs, atol=1e-15)  # IK(zero pose) = 0 exactly
     with pytest.raises(ValueError, match="directions"):
-        fm.commanded(sj.make_calibration_data(np.zeros((2, 6)), targets))
+        fm.commanded(make_calibration_data(np.zeros((2, 6)), targets))
 
 
 def test_report_json_contract(reports):
@@ -286,11 +298,11 @@ def test_report_json_contract(reports):
 
 
 def test_residual_plots(reports, tmp_path):
-    paths = dc.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["temperature_C", "direction"])
+    paths = plotting.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["temperature_C", "direction"])
     assert sorted(p.split("residuals_")[-1] for p in paths) == ["direction.png", "temperature_C.png"]
     assert all((tmp_path / p.split("/")[-1]).stat().st_size > 1000 for p in paths)
     with pytest.raises(ValueError, match="unknown factor"):
-        dc.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["humidity"])
+        plotting.plot_residuals(reports["thermal_expansion"], tmp_path, factors=["humidity"])
 
 
 # ---------------------------------------------------------------- bad input
@@ -298,12 +310,12 @@ def test_residual_plots(reports, tmp_path):
 
 def test_missing_columns_skip_candidates(model, hidden):
     d = hidden["stroke_scale"].data
-    bare = sj.make_calibration_data(d.strokes, d.poses, temperature=d.temperature)
-    chosen, skipped = dc.select_effects(model, bare, 28)
+    bare = make_calibration_data(d.strokes, d.poses, temperature=d.temperature)
+    chosen, skipped = select_effects(model, bare, 28)
     assert {s.effect for s in skipped} == {"backlash", "drift"}
     assert all("lack" in s.reason for s in skipped)
     assert {e.name for e in chosen} == set(EFFECTS) - {"backlash", "drift"}
-    _, skipped = dc.select_effects(model, d, 8)  # 48 observations: 36 + 12 + 6 > 48 for the tilt only
+    _, skipped = select_effects(model, d, 8)  # 48 observations: 36 + 12 + 6 > 48 for the tilt only
     assert [s.effect for s in skipped] == ["actuator_tilt"] and "too few" in skipped[0].reason
 
 
@@ -314,7 +326,7 @@ def test_too_few_poses_is_a_clear_error(model, hidden):
     with pytest.raises(ValueError, match="unknown effect"):
         dc.diagnose(hidden[None].data, model, effects=["warp_drive"])
     with pytest.raises(ValueError, match="singular"):
-        dc.pss_model(sj.nominal_geometry(), sigma_um=0.0)
+        dc.model_for(sj.nominal_geometry(), sigma_um=0.0)
 
 
 def test_register_effect_validates():
@@ -351,7 +363,7 @@ def test_cli_simulate_effect_then_diagnose(tmp_path):
     assert [e.name for e in fm.effects] == ["drift"]
     data = sj.read_csv(csv)
     np.testing.assert_allclose(res["augmented_model"]["effects"][0]["params"],
-                               np.asarray(fm.thetas[0]) * 3600 / sj.UM, rtol=1e-12)
+                               np.asarray(fm.thetas[0]) * 3600 / UM, rtol=1e-12)
     assert np.all(np.isfinite(np.asarray(fm.commanded(data))))
 
 
@@ -366,7 +378,7 @@ def test_cli_lists_the_registry():
 
 
 def test_import_does_not_load_the_cable_robot():
-    code = ("import sys, stewart_jax.discrepancy as dc; dc.effects_for('6-pss'); "
+    code = ("import sys, stewart_jax.discrepancy as dc; dc.effect_names('6-pss'); "
             "print('stewart_jax.cable_robot' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -21,7 +21,11 @@ from test_linalg import batched_lapack_calls
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc
-from stewart_jax.discrepancy._driver import _stack
+from stewart_jax.calibration import make_calibration_data
+
+# The batched engine of the discrepancy benchmarks (private): many train/held-out pairs in one
+# compile; dc.diagnose is the same workflow on one data set.
+from stewart_jax.discrepancy._driver import _stack, diagnose_many, select_effects, split_rows
 from stewart_jax.discrepancy._fits import _base_fits, _prepare_many, fit_candidates, fit_masks_many
 
 SEED = 0
@@ -47,13 +51,13 @@ def runs(request):
     meta, trains, tests = [], [], []
     for c, eff in enumerate([None, *REGISTERED[family], *UNREGISTERED]):
         ses = session(family, geo, eff, np.random.default_rng([SEED, c, 77]), half=half, n=N_POSES)
-        data = sj.make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
-        tr, te = dc.split_rows(N_POSES, 0.3, SEED)
+        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        tr, te = split_rows(N_POSES, 0.3, SEED)
         trains.append(data.take(tr))
         tests.append(data.take(te))
         meta.append((eff, ses.truth))
-    effects, _ = dc.select_effects(model, trains[0], len(tr))
-    reps = dc.diagnose_many(model, effects, trains, tests)
+    effects, _ = select_effects(model, trains[0], len(tr))
+    reps = diagnose_many(model, effects, trains, tests)
     rows = [(eff, truth, te, r) for (eff, truth), te, r in zip(meta, tests, reps, strict=True)]
     return family, model, effects, trains, tests, rows
 

@@ -18,12 +18,21 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from _numpy_reference import rotation
+from conftest import ARCSEC
 
 import stewart_jax as sj
 from stewart_jax import discrepancy as dc
 from stewart_jax._cli import main
 
-EFFECTS = dc.effect_names(dc.UPS_MODEL_NAME)
+# Private building blocks tested on their own: the 6-UPS gravity effect's strut loads (against
+# virtual work), and the two families' registered model factories (each refuses the other's
+# mechanism; users reach them through dc.model_for, which picks by family).
+from stewart_jax.discrepancy._pss import pss_model
+from stewart_jax.discrepancy._ups import gravity_axial_loads, ups_model
+
+MODEL = "6-ups"  # the 6-UPS model's name, the key of its effects
+EFFECTS = dc.effect_names(MODEL)
+T_REF_C = 20.0  # the thermal effect's reference temperature (docs/discrepancy.md)
 CANDIDATES = ("strut_scale", "thermal_expansion", "backlash")
 """The candidates of the naming tests: a subset keeps the one compile of the fit kernels short."""
 N_RANDOM = 30
@@ -86,7 +95,7 @@ def _oracle(effect, t, mech, measured, d):
         rho = rotation(t[:3])
         rot, origin = np.einsum("ij,mjk->mik", rho, rot), origin @ rho.T + t[3:]
     length = np.linalg.norm(np.einsum("mij,lj->mli", rot, platform) + origin[:, None, :] - base, axis=-1)
-    dt = np.asarray(d.temperature)[:, None] - dc.T_REF_C if d.temperature is not None else None
+    dt = np.asarray(d.temperature)[:, None] - T_REF_C if d.temperature is not None else None
     return {
         "strut_scale": lambda: (length - l0) / (1.0 + t),
         "thermal_expansion": lambda: length / (1.0 + t * dt) - l0,
@@ -112,12 +121,12 @@ def rows(half):
     rng = np.random.default_rng(0)
     poses = rng.uniform(-half, half, (8, 6))
     cond = dc.random_conditions(rng, 8)
-    return sj.make_calibration_data(np.zeros((8, 6)), poses, cond.directions, cond.temperature, cond.time)
+    return sj.calibration.make_calibration_data(np.zeros((8, 6)), poses, cond.directions, cond.temperature, cond.time)
 
 
 @pytest.mark.parametrize("effect", EFFECTS)
 def test_effect_is_the_identity_at_zero(camera, model, rows, effect):
-    e = dc.get_effect(dc.UPS_MODEL_NAME, effect)
+    e = dc.get_effect(MODEL, effect)
     zero = model.predict(camera.params, (e,), (jnp.zeros(e.n_params),), rows)
     np.testing.assert_allclose(zero, sj.inverse_kinematics(camera, rows.poses), rtol=0, atol=1e-12)
 
@@ -126,7 +135,7 @@ def test_effect_is_the_identity_at_zero(camera, model, rows, effect):
 def test_effect_matches_independent_strut_physics(camera, model, rows, effect):
     """The registered definition at a nonzero θ against the NumPy oracle, to rounding of the
     metre-scale strut lengths the oracle subtracts (~1e-13 mm)."""
-    e, t = dc.get_effect(dc.UPS_MODEL_NAME, effect), ORACLE_THETA[effect]
+    e, t = dc.get_effect(MODEL, effect), ORACLE_THETA[effect]
     pred = np.asarray(model.predict(camera.params, (e,), (jnp.asarray(t),), rows))
     q = _oracle(effect, t, camera, np.asarray(rows.poses), rows)
     np.testing.assert_allclose(pred, q, rtol=0, atol=1e-10)
@@ -138,8 +147,8 @@ def test_gravity_loads_by_virtual_work(camera, rows):
     """A second method for the statics: with ``J = ∂l/∂P`` the library's pose Jacobian, virtual
     work gives ``Jᵀ t = [0, 0, −1, 0, 0, 0]`` (the weight has no moment about A's origin, so the
     Euler-angle rows are 0 whatever the angle convention)."""
-    loads = np.asarray(dc.gravity_axial_loads(camera.platform, camera.base, camera.v0, rows.poses))
-    jac = np.asarray(sj.kinematic_jacobian(camera, rows.poses))
+    loads = np.asarray(gravity_axial_loads(camera.platform, camera.base, camera.v0, rows.poses))
+    jac = np.asarray(camera.ik_and_jacobian(rows.poses)[2])
     np.testing.assert_allclose(np.einsum("mij,mi->mj", jac, loads),
                                np.broadcast_to([0.0, 0.0, -1.0, 0.0, 0.0, 0.0], (8, 6)), atol=1e-12)
     # the camera hangs below its base: every strut is in tension, and the six carry the weight
@@ -152,7 +161,7 @@ def test_whitener_inverts_the_pose_noise_covariance(camera, model, rows):
     poses = np.asarray(rows.poses)
     ik = lambda p: np.asarray(sj.inverse_kinematics(camera, p))
     jac = np.stack([(ik(poses + h * np.eye(6)[k]) - ik(poses - h * np.eye(6)[k])) / (2 * h) for k in range(6)], -1)
-    sig = np.array([0.1e-3] * 3 + [0.1 * sj.ARCSEC] * 3)
+    sig = np.array([0.1e-3] * 3 + [0.1 * ARCSEC] * 3)
     cov = np.einsum("mik,k,mjk->mij", jac, sig**2, jac)
     # central differences of metre-scale lengths: ~1e-7 relative error in J
     np.testing.assert_allclose(np.einsum("mij,mjk->mik", w @ cov, np.swapaxes(w, 1, 2)),
@@ -171,7 +180,7 @@ def test_simulated_poses_lie_in_the_reachable_travel(camera, half, hidden):
 @pytest.mark.parametrize("effect", ["strut_scale", "thermal_expansion"])
 def test_hidden_strut_effect_is_named_and_the_gap_shrinks(reports, hidden, effect):
     rep = reports[effect]
-    assert rep.model == dc.UPS_MODEL_NAME
+    assert rep.model == MODEL
     assert rep.detected and rep.detect_p_value < 1e-6
     assert rep.named_effect == effect and rep.indistinguishable_from == []
     assert rep.gap_before > 1.2 * rep.noise_floor
@@ -192,7 +201,7 @@ def test_tracker_misalignment_is_absorbed_by_the_base_joints(camera, model, rows
     ``b' = Rᵀ(b − τ)``: for a strut hexapod it has no signature the 42 parameters cannot absorb
     (identifiable rank 0: the workflow lists it under ``absorbed`` and does not test it)."""
     t = ORACLE_THETA["tracker_misalignment"]
-    e = dc.get_effect(dc.UPS_MODEL_NAME, "tracker_misalignment")
+    e = dc.get_effect(MODEL, "tracker_misalignment")
     misaligned = model.predict(camera.params, (e,), (jnp.asarray(t),), rows)
     rho = rotation(t[:3])
     moved = sj.mechanism.UPSMechanism((np.asarray(camera.base) - t[3:]) @ rho, camera.platform, camera.v0,
@@ -212,7 +221,7 @@ def test_cli_diagnoses_a_strut_hexapod_geometry_file(tmp_path, camera_file, hidd
     assert res["named_effect"] == "strut_scale" and res["settings"]["family"] == "6-UPS"
     assert res["gap_after"] < res["gap_before"]
     fm = dc.load_fitted_model(model_json)
-    assert isinstance(fm.model, dc.UPSModel) and [e.name for e in fm.effects] == ["strut_scale"]
+    assert fm.model.name == "6-ups" and [e.name for e in fm.effects] == ["strut_scale"]
     assert fm.model.mechanism.stroke_limits == sj.mechanism.preset("rubin_camera").stroke_limits
     data = sj.read_csv(csv)
     # the CSV stores angles in degrees: the command line's fit equals the in-memory one to ~1e-10 µm
@@ -231,10 +240,10 @@ def test_legacy_6pss_model_file_still_loads(tmp_path):
     path = tmp_path / "legacy.json"
     path.write_text(json.dumps(legacy))
     fm = dc.load_fitted_model(path)
-    assert isinstance(fm.model, dc.PSSModel) and float(fm.model.sigma_mm) == pytest.approx(0.2e-3)
+    assert fm.model.name == "6-pss" and float(fm.model.sigma_mm) == pytest.approx(0.2e-3)
     np.testing.assert_array_equal(fm.base, g.params)
     dirs = np.array([[1.0] * 6, [-1.0] * 6])
-    q = fm.commanded(sj.make_calibration_data(np.zeros((2, 6)), np.zeros((2, 6)), directions=dirs))
+    q = fm.commanded(sj.calibration.make_calibration_data(np.zeros((2, 6)), np.zeros((2, 6)), directions=dirs))
     np.testing.assert_allclose(q, 0.5 * np.asarray(b) * dirs, atol=1e-15)  # IK(zero pose) = 0 exactly
     dc.save_fitted_model(fm, tmp_path / "new.json")
     new = json.loads((tmp_path / "new.json").read_text())
@@ -243,14 +252,15 @@ def test_legacy_6pss_model_file_still_loads(tmp_path):
 
 
 def test_models_are_chosen_by_family_with_clear_errors(camera):
-    assert dc.model_families() == {"6-PSS": "6-pss", "6-UPS": "6-ups"}
-    assert isinstance(dc.model_for(sj.nominal_geometry()), dc.PSSModel)
+    family_models = {m.family: dc.model_for(m).name
+                     for m in (sj.nominal_geometry(), camera, sj.mechanism.preset("rotary_stewart"))}
+    assert family_models == {"6-PSS": "6-pss", "6-UPS": "6-ups", "6-RUS": "6-rus"}
     with pytest.raises(ValueError, match="6-UPS"):
-        dc.pss_model(camera)
+        pss_model(camera)
     with pytest.raises(ValueError, match="6-PSS"):
-        dc.ups_model(sj.nominal_geometry())
+        ups_model(sj.nominal_geometry())
     with pytest.raises(ValueError, match="singular"):
-        dc.ups_model(camera, sigma_arcsec=0.0)
+        dc.model_for(camera, sigma_arcsec=0.0)
     with pytest.raises(ValueError, match="unknown effect 'actuator_tilt' for a 6-UPS"):
         dc.simulate_hidden_effect(0, "actuator_tilt", 1.0, geometry=camera)
     assert "zero_offset" not in EFFECTS and "actuator_tilt" not in EFFECTS
@@ -262,4 +272,4 @@ def test_cli_help_lists_each_familys_effects():
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     help_text = next(a.help for a in sub.choices["diagnose"]._actions if "--effects" in a.option_strings)
     assert "6-UPS: " + ", ".join(EFFECTS) in help_text
-    assert "6-PSS: " + ", ".join(dc.effect_names(dc.PSS_MODEL_NAME)) in help_text
+    assert "6-PSS: " + ", ".join(dc.effect_names("6-pss")) in help_text

@@ -7,10 +7,10 @@ import stewart_jax as sj
 from stewart_jax.calibration import (
     calibration_uncertainty,
     identifiability_report,
-    identification_jacobian,
     plan_poses_optimal,
     predicted_control_error_std,
 )
+from stewart_jax.mechanism import PSSMechanism
 
 
 @pytest.fixture(scope="module")
@@ -18,14 +18,14 @@ def geoms():
     return sj.nominal_geometry(), sj.actual_geometry()
 
 
-def test_identification_jacobian_matches_finite_differences(geoms):
+def test_parameter_jacobian_matches_finite_differences(geoms):
     nom, _ = geoms
-    poses = sj.random_poses(jax.random.key(0), 3)
-    J = np.asarray(identification_jacobian(nom, poses))
+    poses = sj.calibration.random_poses(jax.random.key(0), 3)
+    J = np.asarray(nom.parameter_jacobian(poses))
     u, h = np.asarray(nom.params), 1e-5
     fd = np.stack([
-        (np.asarray(sj.solve_inverse_kinematics(sj.geometry_from_params(u + h * e), poses).strokes)
-         - np.asarray(sj.solve_inverse_kinematics(sj.geometry_from_params(u - h * e), poses).strokes)).reshape(-1)
+        (np.asarray(PSSMechanism.from_params(u + h * e).solve_inverse_kinematics(poses).strokes)
+         - np.asarray(PSSMechanism.from_params(u - h * e).solve_inverse_kinematics(poses).strokes)).reshape(-1)
         / (2 * h)
         for e in np.eye(36)
     ], axis=1)
@@ -34,14 +34,14 @@ def test_identification_jacobian_matches_finite_differences(geoms):
 
 def test_parameter_covariance_is_the_least_squares_sandwich(geoms):
     nom, _ = geoms
-    poses = sj.calibration.sampling_plan_120()
+    poses = sj.plan_poses("plan120", jax.random.key(0))
     rep = identifiability_report(nom, poses, sigma_um=0.1, sigma_arcsec=0.0)
     assert rep.rank == 36 and np.isfinite(rep.condition_number)
     assert rep.singular_values[0] >= rep.singular_values[-1] > 0
-    J = np.asarray(identification_jacobian(nom, poses))
+    J = np.asarray(nom.parameter_jacobian(poses))
     # Independent dense computation of (JᵀJ)⁻¹JᵀCJ(JᵀJ)⁻¹, with C built pose by pose from the
     # kinematic Jacobian and the pose covariance (σ = 0.1 µm in translation only).
-    jp = np.asarray(jax.vmap(sj.kinematic_jacobian, in_axes=(None, 0))(nom, poses))
+    jp = np.asarray(jax.vmap(lambda p: nom.ik_and_jacobian(p)[2])(poses))
     Sp = np.diag([1e-8] * 3 + [0.0] * 3)
     C = np.zeros((720, 720))
     for j in range(120):
@@ -55,15 +55,15 @@ def test_predicted_control_error_matches_monte_carlo(geoms):
     # control error at 42 validation poses vs the linearised prediction. Sample standard
     # deviations of 200 draws scatter by ~5 %; the median over 42 poses scatters less.
     nom, act = geoms
-    targets = sj.random_poses(jax.random.key(1), 8)
+    targets = sj.calibration.random_poses(jax.random.key(1), 8)
     keys = jax.random.split(jax.random.key(2), 200)
     sims = jax.vmap(lambda k: sj.simulate_measurements(k, nom, act, targets))(keys)
     problems = jax.vmap(lambda d: sj.calibration_problem(d, nom))(sims.data)
     res = sj.calibration.calibrate_batch(problems, "lm-batched", keys)
     assert np.all(np.asarray(res.status == sj.optimise.RESULTS.successful))
-    val = sj.random_poses(jax.random.key(3), 42)
-    errs = jax.jit(jax.vmap(lambda p: sj.control_error(sj.geometry_from_params(p), act, val).errors))(res.params)
-    mc = sj.error_in_report_units(errs).std(axis=0)  # (42, 6)
+    val = sj.calibration.random_poses(jax.random.key(3), 42)
+    errs = jax.jit(jax.vmap(lambda p: sj.control_error(PSSMechanism.from_params(p), act, val).errors))(res.params)
+    mc = sj.calibration.error_in_report_units(errs).std(axis=0)  # (42, 6)
     pred = calibration_uncertainty(act, targets, 0.1, 0.1, val)["control_error_std"]
     ratio = np.median(mc / pred, axis=0)
     assert np.all((ratio > 0.8) & (ratio < 1.2)), ratio
@@ -71,12 +71,12 @@ def test_predicted_control_error_matches_monte_carlo(geoms):
 
 def test_o1_plan_beats_random_plan_of_same_size(geoms):
     nom, _ = geoms
-    cand = sj.random_poses(jax.random.key(4), 200)
+    cand = sj.calibration.random_poses(jax.random.key(4), 200)
     plan = plan_poses_optimal(nom, cand, 8, "O1", exchange_sweeps=1)
     assert plan.poses.shape == (8, 6) and len(set(plan.index.tolist())) == 8
     assert plan.history[-1] >= plan.history[0]
-    val = sj.random_poses(jax.random.key(5), 42)
-    paper_like = sj.random_poses(jax.random.key(6), 8)
+    val = sj.calibration.random_poses(jax.random.key(5), 42)
+    paper_like = sj.calibration.random_poses(jax.random.key(6), 8)
     err_opt = predicted_control_error_std(nom, val, identifiability_report(nom, jnp.asarray(plan.poses)).param_cov)
     err_rnd = predicted_control_error_std(nom, val, identifiability_report(nom, paper_like).param_cov)
     assert np.all(err_opt.max(axis=0) < err_rnd.max(axis=0))

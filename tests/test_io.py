@@ -6,7 +6,7 @@ import stewart_jax as sj
 
 def _data(m=7, seed=0, extras=True):
     rng = np.random.default_rng(seed)
-    return sj.make_calibration_data(
+    return sj.calibration.make_calibration_data(
         rng.normal(size=(m, 6)),
         np.concatenate([rng.uniform(-1, 1, (m, 3)), rng.uniform(-0.017, 0.017, (m, 3))], axis=1),
         rng.choice([-1.0, 1.0], (m, 6)) if extras else None,

@@ -99,7 +99,7 @@ def test_round_trip_with_v0_and_perturbed_geometry():
 def test_jacobian_matches_finite_differences(actual):
     h = 1e-6
     for pose in travel_grid(seed=9, n_random=5)[-5:]:
-        J = np.asarray(sj.kinematic_jacobian(actual, jnp.asarray(pose)))
+        J = np.asarray(actual.ik_and_jacobian(jnp.asarray(pose))[2])
         fd = np.empty((6, 6))
         for k in range(6):
             dp = np.zeros(6)
@@ -112,7 +112,7 @@ def test_jacobian_matches_finite_differences(actual):
 
 def test_unreachable_pose_raises_and_reports(actual):
     far = np.array([300.0, 0, 0, 0, 0, 0])
-    sol = sj.solve_inverse_kinematics(actual, jnp.asarray(far))
+    sol = actual.solve_inverse_kinematics(jnp.asarray(far))
     assert not bool(sol.reachable) and np.all(np.isfinite(np.asarray(sol.strokes)))
     with pytest.raises(ValueError, match="unreachable"):
         sj.inverse_kinematics(actual, far)
@@ -133,7 +133,7 @@ def test_bad_inputs_raise_clear_errors(actual):
     with pytest.raises(ValueError, match="NaN"):
         sj.forward_kinematics(actual, np.array([0, 0, np.inf, 0, 0, 0]))
     with pytest.raises(ValueError, match="shape"):
-        sj.Geometry(np.zeros((5, 3)), np.zeros((6, 3)))
+        sj.mechanism.PSSMechanism(np.zeros((5, 3)), np.zeros((6, 3)))
 
 
 def test_unattainable_strokes_report_status_not_nan(actual):
@@ -146,9 +146,9 @@ def test_unattainable_strokes_report_status_not_nan(actual):
 
 def test_jit_vmap_and_broadcasting_agree(actual, grid):
     g = jnp.asarray(grid)
-    plain = sj.solve_inverse_kinematics(actual, g).strokes
-    vm = jax.vmap(sj.solve_inverse_kinematics, in_axes=(None, 0))(actual, g).strokes
-    jv = jax.jit(jax.vmap(sj.solve_inverse_kinematics, in_axes=(None, 0)))(actual, g).strokes
+    plain = actual.solve_inverse_kinematics(g).strokes
+    vm = jax.vmap(actual.solve_inverse_kinematics)(g).strokes
+    jv = jax.jit(jax.vmap(actual.solve_inverse_kinematics))(g).strokes
     j = jit_ik(actual, g).strokes
     # Within one compilation mode the results are bit-identical...
     np.testing.assert_array_equal(vm, plain)
@@ -164,7 +164,7 @@ def test_vmap_over_parameter_sets(grid):
     v0s = jnp.stack([g.v0 for g in geoms])
 
     def ik(p, v):
-        return sj.solve_inverse_kinematics(sj.geometry_from_params(p, v), jnp.asarray(grid)).strokes
+        return sj.mechanism.PSSMechanism.from_params(p, v).solve_inverse_kinematics(jnp.asarray(grid)).strokes
 
     batched = jax.jit(jax.vmap(ik))(params, v0s)
     for g, q in zip(geoms, batched, strict=True):
@@ -172,7 +172,7 @@ def test_vmap_over_parameter_sets(grid):
 
 
 def test_geometry_params_round_trip_and_json(tmp_path, actual):
-    g = sj.Geometry.from_params(actual.params, [1.0, -2.0, 3.0])
+    g = sj.mechanism.PSSMechanism.from_params(actual.params, [1.0, -2.0, 3.0])
     np.testing.assert_array_equal(g.upper, actual.upper)
     np.testing.assert_array_equal(g.lower, actual.lower)
     path = tmp_path / "g.json"

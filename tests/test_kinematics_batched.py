@@ -1,4 +1,4 @@
-"""The batched fast paths agree with the reference kinematics (`stewart_jax.solve_inverse_kinematics`)."""
+"""The batched fast paths agree with the reference kinematics (the mechanism's `solve_inverse_kinematics`)."""
 
 import jax
 import jax.numpy as jnp
@@ -23,7 +23,7 @@ def travel_poses(seed: int, n: int) -> np.ndarray:
     )
 
 
-ik_ref = jax.jit(sj.solve_inverse_kinematics)
+ik_ref = jax.jit(lambda mechanism, poses: mechanism.solve_inverse_kinematics(poses))
 ik_soa = jax.jit(inverse_kinematics_soa)
 
 GEOMETRIES = {
@@ -75,7 +75,7 @@ def test_ik_soa_vmaps_over_geometries():
     poses = travel_poses(3, 16)
     params = jnp.stack([GEOMETRIES["nominal"].params, GEOMETRIES["actual"].params])
     got = jax.jit(
-        jax.vmap(lambda p: inverse_kinematics_soa(sj.geometry_from_params(p), poses.T).strokes)
+        jax.vmap(lambda p: inverse_kinematics_soa(sj.mechanism.PSSMechanism.from_params(p), poses.T).strokes)
     )(params)
     for k, name in enumerate(("nominal", "actual")):
         ref = ik_ref(GEOMETRIES[name], poses).strokes
@@ -106,8 +106,8 @@ def test_polynomial_branch_matches_the_libm_branch():
 def test_analytic_jacobian_matches_autodiff():
     g = sj.actual_geometry(v0=(0.3, -0.2, 1.5))
     poses = jnp.asarray(travel_poses(4, 8))
-    jac = jax.jit(lambda g, p: sj.kinematic_jacobian(g, p))(g, poses)
-    autodiff = jax.jacfwd(lambda p: sj.solve_inverse_kinematics(g, p).strokes)
+    jac = jax.jit(lambda g, p: g.ik_and_jacobian(p)[2])(g, poses)
+    autodiff = jax.jacfwd(lambda p: g.solve_inverse_kinematics(p).strokes)
     ref = jax.jit(jax.vmap(autodiff))(poses)
     np.testing.assert_allclose(jac, ref, rtol=0, atol=1e-11)
 
@@ -156,7 +156,7 @@ rng = np.random.default_rng(8)
 for n in (33, 34):  # odd: padded to the device count
     p = np.concatenate([rng.uniform(-1, 1, (n, 3)), np.deg2rad(rng.uniform(-1, 1, (n, 3)))], 1)
     p[3, 0] = 400.0
-    ref = jax.jit(sj.solve_inverse_kinematics)(g, p)
+    ref = jax.jit(lambda m, q: m.solve_inverse_kinematics(q))(g, p)
     got = jax.jit(inverse_kinematics_sharded)(g, p.T)
     assert got.strokes.shape == (6, n) and got.reachable.shape == (n,)
     assert float(np.max(np.abs(np.asarray(got.strokes).T - ref.strokes))) <= 1e-12

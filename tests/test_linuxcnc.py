@@ -147,6 +147,27 @@ def test_limits_offsets_and_units(configs, name):
     assert ini["HAL"]["HALFILE"] == "hexapod.hal"
 
 
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_the_unshifted_command_is_stated(configs, name):
+    """The INI states how far an unshifted command (X Y Z = the library's d) is from the pivot
+    pose: |v0| and the largest strut-length change, recomputed here from the HAL's joints."""
+    m, config = configs[name]
+    ini, _, base, platform = read_config(config.ini, config.hal)
+    home = np.array(ini["TRAJ"]["HOME"].split(), float)
+    unshifted = np.linalg.norm(platform - base, axis=1)  # X Y Z = 0: the library's zero pose sent as is
+    change = np.max(np.abs(unshifted - np.linalg.norm(platform + home[:3] - base, axis=1)))
+    stated = re.search(r"moves the platform \|v0\| = (\S+) mm\n"
+                       r"# from it and changes a strut's length by up to (\S+) mm", config.ini)
+    assert stated is not None
+    assert float(stated.group(1)) == pytest.approx(np.linalg.norm(home[:3]), rel=1e-6)
+    assert float(stated.group(2)) == pytest.approx(change, rel=1e-6)
+    # the figures a user reads in the how-to (mm, rounded)
+    published = {"rubin_camera": 1879, "rubin_m2": 366, "fast_stewart": 760}
+    if name in published:
+        assert round(change) == published[name]
+    assert change > 10 * np.max(np.asarray(config.joint_limits_mm)[:, 1] - np.asarray(config.joint_home_mm))
+
+
 def test_refusals():
     with pytest.raises(ValueError, match="stroke_limits"):
         to_linuxcnc(preset("rubin_m2"))
@@ -281,3 +302,44 @@ def test_linuxcnc_genhexkins_converges_from_the_exported_home(configs, genhexkin
     np.testing.assert_allclose(from_home[1:], home, rtol=0, atol=1e-9)
     from_zero = np.array(out[1].split(), float)  # from LinuxCNC's default HOME of zero it fails
     assert from_zero[0] != 0 or not np.allclose(from_zero[1:], home, atol=1.0)
+
+
+# ---- a real LinuxCNC, when it is installed --------------------------------------------------------
+
+
+def test_a_real_linuxcnc_starts_the_exported_configuration(tmp_path):
+    """``linuxcnc hexapod.ini`` on the exported files (headless display): out of E-stop, homed,
+    the world position at the joint homes is ``[TRAJ]HOME``, a shifted command reaches the
+    library's pose (joints recomputed here in NumPy from the HAL's joints), and the unshifted
+    one is refused. About 20 s; skipped where LinuxCNC is not installed."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import linuxcnc_start as lc
+
+    why = lc.unavailable()
+    if why:
+        pytest.skip(why)
+    m = preset("rubin_camera")
+    geometry = tmp_path / "camera.json"
+    from stewart_jax import save_mechanism
+
+    save_mechanism(m, geometry)
+    pose = lc.MOVE_FRACTIONS[0] * np.asarray(m.travel_half_widths)
+    seen = lc.run_session(str(geometry), str(tmp_path), [lc.gcode(pose, np.asarray(m.v0)),
+                                                           lc.gcode(pose, np.asarray(m.v0), shifted=False)])
+    assert seen["ok"], seen.get("failure")
+    cfg = tmp_path / "config"
+    _, _, base, platform = read_config((cfg / "hexapod.ini").read_text(), (cfg / "hexapod.hal").read_text())
+    np.testing.assert_allclose(seen["homed_position"], seen["home"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(seen["homed_joints_mm"], seen["joint_home_mm"], rtol=0, atol=1e-9)
+    shifted, unshifted = seen["moves"]
+    xyz = pose[:3] + np.asarray(m.v0)
+    joints = np.linalg.norm(platform @ rpy_matrix(*pose[3:]).T + xyz - base, axis=1)
+    assert not shifted["errors"]
+    np.testing.assert_allclose(shifted["joints_mm"], joints, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(shifted["position"][:3], xyz, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(shifted["position"][3:], np.degrees(pose[3:]), rtol=0, atol=1e-9)
+    assert any("limit" in e for e in unshifted["errors"])
+    np.testing.assert_array_equal(unshifted["joints_mm"], shifted["joints_mm"])  # refused: nothing moved

@@ -81,11 +81,23 @@ def test_singular_values_and_parameter_std():
     s = np.logspace(0, -2, 36)
     _check(plotting.plot_singular_values({"plan 120": s, "8 poses": s / 3}))
     _check(plotting.plot_parameter_std({"plan": np.full(36, 1e-3)}, actual_error_mm={"run": np.full(36, 2e-3)}))
+    # a mixed set (the 6-RUS: lengths in mm, crank zeros in rad) is labelled per parameter: 1e-3 mm is
+    # drawn at 1 µm, 1e-6 rad at 1 µrad
+    fig = plotting.plot_parameter_std({"plan": np.array([1e-3] * 48 + [1e-6] * 6)}, units=("mm",) * 48 + ("rad",) * 6)
+    ax = fig.axes[0]
+    assert "µm" in ax.get_ylabel() and "µrad" in ax.get_ylabel()
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert ticks[-1].endswith("(µrad)") and ticks[0].endswith("(µm)")
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), 1.0)
+    _check(fig)
 
 
 def test_stroke_residuals():
     _check(plotting.plot_stroke_residuals({"nominal": np.ones((10, 6)), "calibrated": np.zeros((10, 6))},
                                           sigma_um=0.1), 2)
+    fig = plotting.plot_stroke_residuals({"crank angles": np.ones((10, 6))}, unit="µrad")
+    assert fig.axes[0].get_ylabel() == "reading residual (µrad)" and "µm" not in fig.axes[0].get_title()
+    _check(fig)
 
 
 def test_fast_figures():

@@ -18,9 +18,8 @@ from stewart_jax.calibration import (
     read_points_csv,
     read_targets,
     summarize_control_error,
-    tracker_whitening,
 )
-from stewart_jax.calibration._points import _problem, default_registration, start_values
+from stewart_jax.calibration._points import _problem, default_registration, start_values, tracker_whitening
 from stewart_jax.mechanism import forward_kinematics, load_mechanism, preset
 
 RANGE_UM, ACROSS_UM_PER_M = 5.0, 2.5

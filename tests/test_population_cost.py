@@ -10,9 +10,13 @@ import numpy as np
 import pytest
 
 import stewart_jax as sj
-from stewart_jax.calibration import calibration_problem, make_calibration_data, population_objective
+from stewart_jax.calibration import calibration_problem, make_calibration_data
+
+# The private objective the population solvers call (its batching rule is what is tested here),
+# and the solvers' own population evaluation.
+from stewart_jax.calibration._problem import population_objective
 from stewart_jax.mechanism import preset, presets
-from stewart_jax.optimise import evaluate
+from stewart_jax.optimise._driver import evaluate
 
 
 def _mechanisms():

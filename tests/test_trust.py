@@ -24,7 +24,7 @@ from stewart_jax.mechanism import load_mechanism, mechanism_from_dict
 def measured(tmp_path_factory):
     """24 poses of the paper's 'actual' mechanism measured with σ = 0.1 µm / 0.1″, as data and CSV."""
     nominal, actual = sj.nominal_geometry(), sj.actual_geometry()
-    targets = sj.random_poses(jax.random.key(5), 24)
+    targets = sj.calibration.random_poses(jax.random.key(5), 24)
     sim = sj.simulate_measurements(jax.random.key(6), nominal, actual, targets)
     path = tmp_path_factory.mktemp("m") / "m.csv"
     write_csv(path, sim.data)
@@ -65,7 +65,7 @@ def test_unreachable_row_is_named_before_calibrating(measured, tmp_path, capsys)
     poses = np.asarray(data.poses).copy()
     poses[3, 0] = 500.0  # mm: sideways beyond every rod
     path = tmp_path / "bad.csv"
-    write_csv(path, sj.make_calibration_data(data.strokes, poses))
+    write_csv(path, sj.calibration.make_calibration_data(data.strokes, poses))
     rc, _, err = run(["calibrate", str(path)], capsys)
     assert rc == 2 and "rows [4]" in err and "cannot reach" in err
 
@@ -86,7 +86,7 @@ def test_goodness_of_fit_statistic_is_chi2_distributed():
     """20 noisy data sets of the same poses, each calibrated: the statistic's mean is its degrees
     of freedom (χ² mean = dof, std = sqrt(2 dof)) and its p-values are not piled up near 0."""
     nominal, actual = sj.nominal_geometry(), sj.actual_geometry()
-    targets = sj.random_poses(jax.random.key(5), 24)
+    targets = sj.calibration.random_poses(jax.random.key(5), 24)
     keys = jax.random.split(jax.random.key(9), 20)
     sims = jax.vmap(lambda k: sj.simulate_measurements(k, nominal, actual, targets))(keys)
     problems = jax.vmap(lambda d: sj.calibration_problem(d, nominal))(sims.data)
@@ -103,7 +103,7 @@ def test_radians_for_degrees_fail_the_goodness_of_fit(measured):
     """Angles read in the wrong unit: the fit converges, but to residuals far above the noise."""
     data, _ = measured
     nominal = sj.nominal_geometry()
-    wrong = sj.make_calibration_data(data.strokes, data.poses * jnp.array([1, 1, 1] + [np.pi / 180] * 3))
+    wrong = sj.calibration.make_calibration_data(data.strokes, data.poses * jnp.array([1, 1, 1] + [np.pi / 180] * 3))
     res = sj.calibrate(sj.calibration_problem(wrong, nominal), "lm-batched")
     a = assess_calibration(nominal.with_params(res.params), wrong, 0.1, 0.1)
     assert a.status == "poor_fit" and a.rms_ratio > 10 and a.p_value < 1e-3
@@ -117,7 +117,7 @@ def test_lengths_in_metres_fail_the_goodness_of_fit(measured):
     data, _ = measured
     nominal = sj.nominal_geometry()
     scale = jnp.array([1e-3] * 3 + [1.0] * 3)
-    metres = sj.make_calibration_data(data.strokes * 1e-3, data.poses * scale)
+    metres = sj.calibration.make_calibration_data(data.strokes * 1e-3, data.poses * scale)
     res = sj.calibrate(sj.calibration_problem(metres, nominal), "lm-batched")
     a = assess_calibration(nominal.with_params(res.params), metres, 0.1, 0.1)
     assert a.status == "poor_fit" and a.p_value > 1 - 1e-3  # p of a χ² at least this large

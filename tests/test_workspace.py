@@ -107,13 +107,14 @@ def test_agrees_with_dense_scan(travel):
         k = int(np.argmin(ok))
         assert k > 0 and not bool(r.hit_max[i])
         lo, hi = t[k - 1], t[k]
-        assert lo - 1e-9 * e <= float(r.extent[i]) <= hi + 1e-9 * e, (M.MAX_TRAVEL_RAYS[i], lo, hi, r.extent[i])
+        assert lo - 1e-9 * e <= float(r.extent[i]) <= hi + 1e-9 * e, (i, lo, hi, r.extent[i])
 
 
 class _Gap(M.AbstractMechanism):
     """A toy mechanism reachable for x ∈ [0, 2] ∪ [3, 5]: its first exit along +x is at 2."""
 
     family: ClassVar[str] = "toy-gap"
+    reading_unit: ClassVar[str] = "mm"
     v0: Any
 
     def __init__(self):
@@ -122,6 +123,13 @@ class _Gap(M.AbstractMechanism):
     @property
     def params(self):
         return jnp.zeros(1)
+
+    @property
+    def param_units(self):
+        return ("mm",)
+
+    def moving_joints(self, poses):
+        return jnp.zeros((*poses.shape[:-1], 6, 3))
 
     def with_params(self, params):
         return self

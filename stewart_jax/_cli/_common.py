@@ -45,22 +45,27 @@ def noise_args(p: argparse.ArgumentParser) -> None:
 
 def geometry_args(p: argparse.ArgumentParser, *, true: bool) -> None:
     """``--geometry`` (the nominal model) and, for simulations, the true mechanism."""
+    from ..mechanism._registry import presets
+
     p.add_argument("--geometry", "--nominal", dest="geometry", default="nominal",
-                   help="nominal (model) geometry: a preset (nominal, actual, rubin_camera, rubin_m2, "
-                        "fast_stewart, …) or a JSON/TOML geometry file")
+                   help=f"nominal (model) geometry: a preset ({', '.join(presets())}) or a JSON/TOML geometry file")
     param_set_arg(p)
     if true:
         p.add_argument("--true", default=None,
                        help="true geometry (preset or file); default: 'actual' for the paper's 'nominal', "
                             "else the nominal one perturbed by --perturb-mm")
         p.add_argument("--perturb-mm", type=float, default=0.5,
-                       help="σ (mm) of the Gaussian error on every parameter of the default true mechanism")
+                       help="σ (mm) of the Gaussian error on every length parameter of the default true mechanism")
+        p.add_argument("--perturb-mrad", type=float, default=None,
+                       help="σ (mrad) of the Gaussian error on every angle parameter of the default true mechanism "
+                            "(default: the --perturb-mm number)")
 
 
 def param_set_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--param-set", choices=("36", "42", "54"),
-                   help="6-PSS calibration parameters: 36 joint centres (the paper's), + 6 rod lengths (42), "
-                        "+ 12 slider-axis tilts in mrad (54); default: what the geometry file implies")
+    p.add_argument("--param-set", choices=("36", "42", "48", "54"),
+                   help="calibration parameters: a 6-PSS's 36 joint centres (the paper's), + 6 rod lengths (42), "
+                        "+ 12 slider-axis tilts in mrad (54); a 6-RUS's joints, cranks and rods (48), + 6 crank "
+                        "zero angles in rad (54); default: what the geometry file implies")
 
 
 def load_nominal(args: argparse.Namespace):
@@ -72,8 +77,8 @@ def load_nominal(args: argparse.Namespace):
     if param_set is None:
         return nominal
     if not hasattr(nominal, "with_param_set"):
-        raise ValueError(f"--param-set chooses among the 6-PSS parameter sets; {args.geometry!r} is a "
-                         f"{nominal.family}, whose parameters are fixed ({nominal.n_params})")
+        raise ValueError(f"--param-set chooses among the 6-PSS parameter sets (and the 6-RUS ones); "
+                         f"{args.geometry!r} is a {nominal.family}, whose parameters are fixed ({nominal.n_params})")
     return nominal.with_param_set(param_set)
 
 
@@ -90,7 +95,8 @@ def nominal_and_true(args: argparse.Namespace):
     elif args.geometry == "nominal":
         true = load_mechanism("actual")
     else:
-        true = perturbed(nominal, jax.random.fold_in(jax.random.key(args.seed), 1_000_003), args.perturb_mm)
+        true = perturbed(nominal, jax.random.fold_in(jax.random.key(args.seed), 1_000_003), args.perturb_mm,
+                         getattr(args, "perturb_mrad", None))
     if type(nominal) is not type(true):
         raise ValueError(f"--geometry is a {nominal.family}, --true a {true.family}: give one family")
     return nominal, true

@@ -33,7 +33,7 @@ def is_points_file(path: str) -> bool:
     return "target" in (h.strip() for h in header)
 
 
-def _sigma(args) -> tuple[float, float]:
+def tracker_sigma(args) -> tuple[float, float]:
     from ..calibration._points import DEFAULT_TRACKER_SIGMA
 
     s = args.tracker_sigma_um
@@ -56,7 +56,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
             raise ValueError(f"{flag} is for pose files; a points file's report uses every pose")
     if args.method != "lm-batched":
         raise ValueError("a points file is calibrated by the batched Levenberg–Marquardt (--method lm-batched)")
-    range_um, across = _sigma(args)
+    range_um, across = tracker_sigma(args)
 
     from ..calibration._points import calibrate_points, implied_point_pose_errors, read_points_csv, read_targets
     from ._common import load_nominal
@@ -160,7 +160,7 @@ def run_simulate(args: argparse.Namespace) -> int:
         raise ValueError("--points needs --targets T.json (add --default-targets to write a default set there)")
     if args.default_targets:
         check_outputs(args, targets="--targets")
-    range_um, across = _sigma(args)
+    range_um, across = tracker_sigma(args)
     nominal, true = nominal_and_true(args)
     targets = default_targets(nominal) if args.default_targets else read_targets(args.targets)
     k_plan, k_noise = jax.random.split(jax.random.key(args.seed))

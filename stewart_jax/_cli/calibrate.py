@@ -8,8 +8,16 @@ import time
 
 import numpy as np
 
+from .._units import ascii_unit, is_angle, report_factor, report_unit
 from ..calibration._methods import METHOD_REGISTRY
 from ._common import check_outputs, file_backend, load_nominal, noise_args, param_set_arg, write_json
+
+
+def _reading_labels(mechanism) -> tuple[str, str, str]:
+    """The JSON key of the RMS reading residual (``rms_residual_um`` or ``rms_residual_urad``), the
+    readings' report unit and the cost's unit (``mm²`` or ``rad²``)."""
+    unit = report_unit(mechanism.reading_unit)
+    return f"rms_residual_{ascii_unit(unit)}", unit, f"{mechanism.reading_unit}²"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,6 +34,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{name} must be >= {least}, got {value}")
     if not (np.isfinite(args.half_width) and args.half_width > 0):
         raise ValueError(f"--half-width must be a positive number (mm), got {args.half_width}")
+    if args.half_width_mrad is not None and not (np.isfinite(args.half_width_mrad) and args.half_width_mrad > 0):
+        raise ValueError(f"--half-width-mrad must be a positive number (mrad), got {args.half_width_mrad}")
     if not (args.sigma_um > 0 and args.sigma_arcsec > 0 and np.isfinite(args.sigma_um + args.sigma_arcsec)):
         raise ValueError(f"--sigma-um and --sigma-arcsec must be positive (the pose noise of the data), got "
                          f"{args.sigma_um} µm, {args.sigma_arcsec}″")
@@ -44,10 +54,10 @@ def run(args: argparse.Namespace) -> int:
     from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
-    data = read_csv(args.file)
     nominal = load_nominal(args)
+    data = read_csv(args.file, reading_unit=nominal.reading_unit)
     _check_reachable(nominal, data, args)
-    problem = calibration_problem(data, nominal, args.half_width)
+    problem = calibration_problem(data, nominal, args.half_width, args.half_width_mrad)
     options = {}
     if args.max_evaluations is not None:
         options["max_evaluations"] = args.max_evaluations
@@ -58,20 +68,25 @@ def run(args: argparse.Namespace) -> int:
     seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
     m = data.n_poses
+    rms_key, reading_unit, cost_unit = _reading_labels(nominal)
     out = {
         "method": args.method,
         "params": params.tolist(),
         "param_names": list(nominal.param_names),
+        "param_units": list(nominal.param_units),
         "cost": float(result.cost),
+        "cost_unit": cost_unit,
         "n_evaluations": int(result.n_evaluations),
         "seconds": seconds,
         "status": status_name(result.status),
         "n_poses": m,
-        "rms_residual_um": float(np.sqrt(float(result.cost) / (6 * m)) * 1e3),
+        rms_key: float(np.sqrt(float(result.cost) / (6 * m)) * report_factor(nominal.reading_unit)),
         "in_box": bool(np.all((params >= np.asarray(problem.lower)) & (params <= np.asarray(problem.upper)))),
         "half_width_mm": args.half_width,
         "seed": args.seed,
     }
+    if any(is_angle(u) for u in nominal.param_units):
+        out["half_width_mrad"] = args.half_width if args.half_width_mrad is None else args.half_width_mrad
     calibrated = nominal.with_params(params)
     assessment = None
     if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
@@ -89,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
         out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
                            "check the units (mm, degrees) of the CSV and of the geometry"]
     print(
-        f"{args.method}: S = {out['cost']:.6g} mm² (rms stroke residual {out['rms_residual_um']:.4g} µm) "
+        f"{args.method}: S = {out['cost']:.6g} {cost_unit} (rms reading residual {out[rms_key]:.4g} {reading_unit}) "
         f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}"
         + (f", data {out['data_status']}" if "data_status" in out else ""),
         file=sys.stderr,
@@ -119,10 +134,13 @@ def run(args: argparse.Namespace) -> int:
         from .. import plotting
         from ..calibration._problem import stroke_residuals
 
-        before = np.asarray(stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * 1e3
-        after = np.asarray(stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * 1e3
-        plotting.show(plotting.plot_stroke_residuals({"nominal": before, f"calibrated ({args.method})": after},
-                                                     sigma_um=args.sigma_um), args.plot)
+        factor = report_factor(nominal.reading_unit)
+        before = np.asarray(stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * factor
+        after = np.asarray(stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * factor
+        series = {"nominal": before, f"calibrated ({args.method})": after}
+        figure = (plotting.plot_stroke_residuals(series, sigma_um=args.sigma_um) if nominal.reading_unit == "mm"
+                  else plotting.plot_stroke_residuals(series, unit=reading_unit))
+        plotting.show(figure, args.plot)
     if not args.json:
         from .._files import json_text
 
@@ -174,7 +192,7 @@ def _heldout(args, data, nominal, fraction, options) -> dict:
     if 6 * len(train) < nominal.n_params or k == 0:
         raise ValueError(f"--holdout {fraction}: {m} poses leave {len(train)} to calibrate {nominal.n_params} "
                          "parameters with; use a smaller fraction or --holdout 0")
-    res = calibrate(calibration_problem(data.take(train), nominal, args.half_width), args.method,
+    res = calibrate(calibration_problem(data.take(train), nominal, args.half_width, args.half_width_mrad), args.method,
                     jax.random.key(args.seed), **options)
     fitted = nominal.with_params(res.params)
     held = data.take(test)
@@ -193,7 +211,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", help="write the result as JSON")
     p.add_argument("--geometry", default="nominal", help="starting/nominal geometry: preset or file")
     param_set_arg(p)
-    p.add_argument("--half-width", type=float, default=10.0, help="Ω = nominal ± this (mm; mrad for tilts)")
+    p.add_argument("--half-width", type=float, default=10.0, help="Ω = nominal ± this for each length parameter (mm)")
+    p.add_argument("--half-width-mrad", type=float, default=None,
+                   help="Ω = nominal ± this for each angle parameter (mrad; default the --half-width number)")
     p.add_argument("--max-evaluations", type=int, help="objective-evaluation budget (metaheuristics)")
     p.add_argument("--max-steps", type=int, help="iteration budget (LM)")
     p.add_argument("--out-geometry", help="write the calibrated geometry as JSON")

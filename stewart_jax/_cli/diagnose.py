@@ -1,5 +1,5 @@
 """``stewart-jax diagnose`` (the model-discrepancy workflow of :mod:`stewart_jax.discrepancy` on a
-measurement CSV, with the discrepancy model of the geometry's family: 6-PSS or 6-UPS) and
+measurement CSV, with the discrepancy model of the geometry's family: 6-PSS, 6-UPS or 6-RUS) and
 ``stewart-jax simulate-effect`` (measurements of the paper's 6-PSS with one hidden registered
 effect). The candidate names come from the effect registry."""
 
@@ -14,12 +14,17 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from ..discrepancy import diagnose, model_for
     from ..mechanism._registry import load_mechanism
     from ._common import check_outputs
+    from ._points import is_points_file
 
     check_outputs(args, json="--json", out_model="--out-model")
-    data = read_csv(args.file)
-    geometry = load_mechanism(args.geometry)
-    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, args.sigma_stroke_um)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    if is_points_file(args.file):
+        return _diagnose_points(args, effects)
+    if args.targets is not None or args.tracker_sigma_um is not None:
+        raise ValueError("--targets and --tracker-sigma-um are for a points file (one with a 'target' column)")
+    geometry = load_mechanism(args.geometry)
+    data = read_csv(args.file, reading_unit=geometry.reading_unit)
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, _reading_sigma(args, geometry))
     report = diagnose(
         data,
         model,
@@ -37,11 +42,57 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         "sigma_um": args.sigma_um,
         "sigma_arcsec": args.sigma_arcsec,
         "sigma_stroke_um": args.sigma_stroke_um,
+        "sigma_reading_urad": args.sigma_reading_urad,
         "holdout_fraction": args.holdout_fraction,
         "seed": args.seed,
         "alpha": args.alpha,
         "estimate_noise": args.estimate_noise,
     }
+    return _finish(args, report, out)
+
+
+def _diagnose_points(args: argparse.Namespace, effects) -> int:
+    """``diagnose POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``: the workflow on
+    the tracker's points, with its noise model (:func:`~stewart_jax.discrepancy.points_model`)."""
+    from ..calibration._points import read_points_csv, read_targets
+    from ..discrepancy import diagnose, point_rows, points_model
+    from ..mechanism._registry import load_mechanism
+    from ._points import tracker_sigma
+
+    if args.targets is None:
+        raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
+                         "coordinates with --targets T.json")
+    if args.out_model:
+        raise ValueError("--out-model writes a model of pose data; for a points file, write the calibrated "
+                         "geometry with calibrate --out-geometry")
+    range_um, across = tracker_sigma(args)
+    targets = read_targets(args.targets)
+    data = read_points_csv(args.file, targets)
+    geometry = load_mechanism(args.geometry)
+    rows, rotation, translation = point_rows(data, targets, geometry, range_um=range_um, across_um_per_m=across)
+    model = points_model(geometry, rotation, translation)
+    report = diagnose(rows, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,
+                      alpha=args.alpha, estimate_noise=args.estimate_noise)
+    out = report.to_dict()
+    out["file"] = args.file
+    out["data"] = "points"
+    out["n_poses"] = data.n_poses
+    out["n_points"] = int(len(data.points))
+    out["settings"] = {
+        "geometry": args.geometry,
+        "family": geometry.family,
+        "targets": args.targets,
+        "tracker_sigma_range_um": range_um,
+        "tracker_sigma_across_um_per_m": across,
+        "holdout_fraction": args.holdout_fraction,
+        "seed": args.seed,
+        "alpha": args.alpha,
+        "estimate_noise": args.estimate_noise,
+    }
+    return _finish(args, report, out)
+
+
+def _finish(args: argparse.Namespace, report, out: dict) -> int:
     if args.plot:
         from ._common import file_backend
 
@@ -67,6 +118,19 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reading_sigma(args: argparse.Namespace, geometry) -> float:
+    """The reading noise in the readings' report unit: ``--sigma-stroke-um`` (linear readings) or
+    ``--sigma-reading-urad`` (a rotary family's crank angles), the other refused."""
+    if geometry.reading_unit == "mm":
+        if args.sigma_reading_urad:
+            raise ValueError(f"--sigma-reading-urad is for crank angles; a {geometry.family} reads mm "
+                             "(--sigma-stroke-um)")
+        return args.sigma_stroke_um
+    if args.sigma_stroke_um:
+        raise ValueError(f"a {geometry.family} reads crank angles: give their noise as --sigma-reading-urad")
+    return args.sigma_reading_urad
+
+
 def _cmd_simulate_effect(args: argparse.Namespace) -> int:
     from ..discrepancy import simulate_hidden_effect, write_hidden_csv
     from ._common import check_outputs
@@ -88,17 +152,27 @@ def _cmd_simulate_effect(args: argparse.Namespace) -> int:
 
 def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose`` (and ``simulate-effect``) on a ``add_subparsers()`` object."""
-    from ..discrepancy import PSS_MODEL_NAME, effect_names, model_families
+    from ..discrepancy import effect_names
+    from ..discrepancy._families import model_families
+    from ..discrepancy._pss import PSS_MODEL_NAME
+    from ._points import tracker_sigma_arg
 
     names = effect_names(PSS_MODEL_NAME)
     per_family = "; ".join(f"{fam}: {', '.join(effect_names(m))}" for fam, m in model_families().items())
     p = subparsers.add_parser("diagnose", help="model-discrepancy workflow: detect, name, add, show")
-    p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional)")
+    p.add_argument("file", help="measured data CSV (x..rz, q1..q6; dir1..dir6, temperature, time optional), or a "
+                   "laser tracker's points file (pose, target, q1..q6, x, y, z) with --targets")
     p.add_argument("--geometry", default="nominal",
                    help="starting geometry: preset or JSON/TOML file; its family picks the model and the candidates")
+    p.add_argument("--targets", help="a points file's targets (JSON, mm): its rows are the tracker's points")
+    p.add_argument("--tracker-sigma-um", type=tracker_sigma_arg, metavar="RANGE,ACROSS_PER_M",
+                   help="a points file's tracker noise: σ along the line of sight (µm) and across it (µm per metre "
+                   "of distance); default 5,2.5")
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
     p.add_argument("--sigma-stroke-um", type=float, default=0.0, help="actuator reading noise σ (µm)")
+    p.add_argument("--sigma-reading-urad", type=float, default=0.0,
+                   help="a rotary family's crank-reading noise σ (µrad)")
     p.add_argument("--estimate-noise", action="store_true",
                    help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")

@@ -33,7 +33,7 @@ def _run_linuxcnc(args: argparse.Namespace) -> int:
     from ..mechanism._registry import load_mechanism
 
     if args.out is None:
-        raise ValueError("--format linuxcnc writes two files: give the directory with --out DIR")
+        raise ValueError("--format linuxcnc writes three files (INI, HAL, tool table): give the folder with --out DIR")
     limits = None
     if args.stroke_limits_mm is not None:
         try:
@@ -43,14 +43,13 @@ def _run_linuxcnc(args: argparse.Namespace) -> int:
         if len(limits) != 2:
             raise ValueError(f"--stroke-limits-mm takes MIN,MAX (mm of reading), got {args.stroke_limits_mm!r}")
     config = to_linuxcnc(load_mechanism(args.geometry), stroke_limits_mm=limits, name=args.name)
-    paths = [os.path.join(args.out, f"{args.name}.{ext}") for ext in ("ini", "hal")]
+    paths = [os.path.join(args.out, f"{args.name}.{ext}") for ext in ("ini", "hal", "tbl")]
     os.makedirs(args.out, exist_ok=True)
     for path in paths:
         check_writable(path, "--out")
-    for path, text in zip(paths, (config.ini, config.hal), strict=True):
+    for path, text in zip(paths, (config.ini, config.hal, config.tool_table), strict=True):
         write_text_atomic(path, text)
-    print(f"wrote LinuxCNC genhexkins configuration of {args.geometry!r} to {paths[0]} and {paths[1]}",
-          file=sys.stderr)
+    print(f"wrote LinuxCNC genhexkins configuration of {args.geometry!r} to {', '.join(paths)}", file=sys.stderr)
     return 0
 
 
@@ -60,7 +59,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--format", choices=("json", "genhexkins", "linuxcnc"), default="json",
                    help="linuxcnc: an INI and a HAL file for genhexkins, in the directory --out")
     p.add_argument("--out", help="output file (default: standard output); for linuxcnc, a directory")
-    p.add_argument("--name", default="hexapod", help="linuxcnc: the files' stem (NAME.ini, NAME.hal)")
+    p.add_argument("--name", default="hexapod", help="linuxcnc: the files' stem (NAME.ini, NAME.hal, NAME.tbl)")
     p.add_argument("--stroke-limits-mm", help="linuxcnc: MIN,MAX of the reading (mm) for a geometry without them")
     p.set_defaults(func=run)
     return p

@@ -118,15 +118,10 @@ def run_fast(args: argparse.Namespace) -> int:
 
     import stewart_jax  # noqa: F401  (float64)
 
-    from ..cable_robot import (
-        PAPER_TABLE2,
-        WORKSPACE_STATUS,
-        attitude_summary,
-        cabin_modes_jit,
-        cable_string_modes,
-        paper_fast_params,
-        run_scenario_jit,
-    )
+    from ..cable_robot import PAPER_TABLE2, WORKSPACE_STATUS, cable_string_modes, paper_fast_params
+    from ..cable_robot._attitude import attitude_summary
+    from ..cable_robot._modes import cabin_modes_jit
+    from ..cable_robot._scenario import run_scenario_jit
     from ._common import check_outputs
 
     check_outputs(args, json="--json", plot="--plot")

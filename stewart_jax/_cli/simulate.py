@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         p = np.array(poses)
         p[:, 3:] = np.degrees(p[:, 3:])
         extra[",".join(f"{prefix}_{c}" for c in ("x", "y", "z", "rx", "ry", "rz"))] = p
-    write_csv(args.out, sim.data, extra)
+    write_csv(args.out, sim.data, extra, reading_unit=nominal.reading_unit)
     if args.out_true:
         save_mechanism(true, args.out_true)
     print(f"wrote {len(targets)} poses ({args.plan}, seed {args.seed}) to {args.out}", file=sys.stderr)

@@ -24,34 +24,30 @@ SI units (m, kg, s, N) and float64 throughout (the parent package enables ``jax_
   of nodes and cabin together, and every mode of the whole system.
 - :mod:`._lumped_time` — beyond the paper: free and forced response on lumped-mass cables
   (velocity Verlet in ``lax.scan``, modal damping ratio, batched over positions).
+
+What a user calls: :func:`paper_fast_params` (:class:`FastParams`, with its
+:class:`CableParams`); :func:`solve_catenary`; :func:`static_equilibrium`; :func:`run_scenario`,
+the coupled simulation of §6 (compiled once with ``jax.jit(run_scenario,
+static_argnames=("duration", "dt", "start", "method"))``); :func:`cabin_statics`,
+:func:`workspace_map` and :func:`focal_surface_point`; :func:`solve_attitude` and
+:func:`smallest_feasible_tilt`; :func:`cabin_modes`, :func:`modes_map` and
+:func:`cable_string_modes`; :func:`lumped_statics`, :func:`lumped_modes`, :func:`modal_summary`
+and :func:`simulate_lumped`. The modules' building blocks (the catenary's Jacobian and starts,
+the platform's Newton–Euler dynamics, the integrator behind :func:`run_scenario`) are private.
 """
 
+from typing import Any as _Any
+
+from .. import _moved
 from ._attitude import (
-    ATTITUDES as ATTITUDES,
     AttitudeSolution as AttitudeSolution,
-    attitude_summary as attitude_summary,
-    max_min_tension_attitude as max_min_tension_attitude,
-    rotation_from_vector as rotation_from_vector,
     smallest_feasible_tilt as smallest_feasible_tilt,
     solve_attitude as solve_attitude,
-    tilt_angle as tilt_angle,
-    towards_centre_attitude as towards_centre_attitude,
 )
 from ._catenary import (
     CableParams as CableParams,
     CatenarySolution as CatenarySolution,
-    catenary_jacobian as catenary_jacobian,
-    catenary_upper_end as catenary_upper_end,
-    peyrot_goulois_start as peyrot_goulois_start,
     solve_catenary as solve_catenary,
-    straight_bar_start as straight_bar_start,
-)
-from ._coupled import (
-    CabinState as CabinState,
-    Trajectory as Trajectory,
-    matrix_to_quat as matrix_to_quat,
-    quat_to_matrix as quat_to_matrix,
-    simulate as simulate,
 )
 from ._lumped import (
     LumpedModes as LumpedModes,
@@ -61,85 +57,31 @@ from ._lumped import (
     lumped_statics as lumped_statics,
     modal_summary as modal_summary,
 )
-from ._lumped_time import (
-    LumpedTrajectory as LumpedTrajectory,
-    simulate_lumped as simulate_lumped,
-)
+from ._lumped_time import LumpedTrajectory as LumpedTrajectory, simulate_lumped as simulate_lumped
 from ._modes import (
     CabinModes as CabinModes,
     CableStringModes as CableStringModes,
-    cabin_mass_matrix as cabin_mass_matrix,
     cabin_modes as cabin_modes,
-    cabin_modes_jit as cabin_modes_jit,
-    cabin_stiffness as cabin_stiffness,
-    cable_inertia_matrix as cable_inertia_matrix,
     cable_string_modes as cable_string_modes,
-    modes_from_matrices as modes_from_matrices,
     modes_map as modes_map,
-    paper_momentum_matrix as paper_momentum_matrix,
-    static_wrench as static_wrench,
 )
 from ._scenario import (
     PAPER_CORRELATION_CENTRE as PAPER_CORRELATION_CENTRE,
     PAPER_POSITIONS as PAPER_POSITIONS,
     PAPER_TABLE2 as PAPER_TABLE2,
     ScenarioResult as ScenarioResult,
-    rotation_vector as rotation_vector,
     run_scenario as run_scenario,
-    run_scenario_jit as run_scenario_jit,
-    sine_motion as sine_motion,
-    system_momentum as system_momentum,
-    table2_statistics as table2_statistics,
 )
-from ._statics import (
-    StaticSolution as StaticSolution,
-    static_equilibrium as static_equilibrium,
-    static_equilibrium_jit as static_equilibrium_jit,
-    static_residual as static_residual,
-    straight_cable_start as straight_cable_start,
-)
-from ._stewart import (
-    LegKinematics as LegKinematics,
-    LowerMotion as LowerMotion,
-    StewartForces as StewartForces,
-    StewartParams as StewartParams,
-    UpperMotion as UpperMotion,
-    leg_kinematics as leg_kinematics,
-    paper_stewart_params as paper_stewart_params,
-    reaction_wrench as reaction_wrench,
-    stewart_inverse_dynamics as stewart_inverse_dynamics,
-    upper_platform_wrench as upper_platform_wrench,
-)
-from ._system import (
-    CabinDynamics as CabinDynamics,
-    FastParams as FastParams,
-    anchor_positions as anchor_positions,
-    cabin_accelerations as cabin_accelerations,
-    cabin_residual as cabin_residual,
-    cable_deltas as cable_deltas,
-    paper_fast_params as paper_fast_params,
-    static_lower_motion as static_lower_motion,
-    tower_positions as tower_positions,
-    upper_motion as upper_motion,
-)
+from ._statics import StaticSolution as StaticSolution, static_equilibrium as static_equilibrium
+from ._system import FastParams as FastParams, paper_fast_params as paper_fast_params
 from ._workspace import (
-    APERTURE_RADIUS as APERTURE_RADIUS,
-    CURVATURE_CENTRE as CURVATURE_CENTRE,
-    FOCAL_RADIUS as FOCAL_RADIUS,
-    REFLECTOR_RADIUS as REFLECTOR_RADIUS,
     WORKSPACE_STATUS as WORKSPACE_STATUS,
-    AssemblyBodies as AssemblyBodies,
     CableStatics as CableStatics,
-    assembly_bodies as assembly_bodies,
-    assembly_centre_of_mass as assembly_centre_of_mass,
-    assess as assess,
     cabin_statics as cabin_statics,
-    cabin_statics_jit as cabin_statics_jit,
-    cable_profile as cable_profile,
     focal_surface_point as focal_surface_point,
-    lowest_points as lowest_points,
-    reflector_clearance as reflector_clearance,
     workspace_map as workspace_map,
-    zenith_angle as zenith_angle,
 )
 
+
+def __getattr__(name: str) -> _Any:
+    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

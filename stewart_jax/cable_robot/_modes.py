@@ -16,7 +16,7 @@ origin and a rotation vector in G, ``R_C(δφ) = exp([δφ]×) R_C``. Then
   C's origin) — cables, the weight of every body, the legs — with the cable forces at fixed
   ``s0``. Its derivative is exact: the cable forces move by ``dF = J⁻¹ dδ`` (implicit
   function theorem on eqs. 11–13, J from the closed-form
-  :func:`~stewart_jax.cable_robot.catenary_jacobian`), the rest by ``jax.jacfwd``. At an
+  :func:`~stewart_jax.cable_robot._catenary.catenary_jacobian`), the rest by ``jax.jacfwd``. At an
   equilibrium ``K`` is the Hessian of the potential energy, symmetric
   (the asymmetry is reported; the moment's derivative with respect to the rotation
   coordinates differs from the Hessian by a term proportional to the net moment, zero at
@@ -101,7 +101,7 @@ def static_wrench(
     the pose displaced by ``q = (δt, δφ)`` with the given lower-end cable forces: the cables'
     ``−F`` at the anchors and the total weight at the assembly's centre of mass. At rest this
     is eqs. 57–58 with the legs' wrench from the momentum balance of legs + lower platform
-    (their weights), i.e. :func:`~stewart_jax.cable_robot.cabin_residual` at zero motion."""
+    (their weights), i.e. :func:`~stewart_jax.cable_robot._system.cabin_residual` at zero motion."""
     pos = position + q[:3]
     Rq = _exp(q[3:]) @ R
     m, com = assembly_centre_of_mass(params, pos, Rq)
@@ -124,7 +124,7 @@ def cabin_stiffness(
 
     NOTE (implicit differentiation, written out): with ``s0`` fixed, a cable's end condition
     ``end(F, s0) = δ`` (eqs. 11–13) gives ``dF = J⁻¹ dδ`` with ``J = ∂end/∂F`` in closed form
-    (:func:`~stewart_jax.cable_robot.catenary_jacobian`). The cable forces are therefore
+    (:func:`~stewart_jax.cable_robot._catenary.catenary_jacobian`). The cable forces are therefore
     replaced by their exact first-order expansion ``F + J⁻¹ (δ(q) − δ(0))`` and the wrench is
     differentiated by ``jax.jacfwd``: the same derivative as differentiating through
     :func:`~stewart_jax.cable_robot.solve_catenary` (which uses the same implicit rule), without
@@ -153,7 +153,7 @@ def cabin_mass_matrix(params: FastParams, R: Float[Array, "3 3"]) -> Float[Array
 
 
 def paper_momentum_matrix(params: FastParams, R: Float[Array, "3 3"]) -> Float[Array, "6 6"]:
-    """``∂(p, h)/∂(ṫ_C, ω)`` of :func:`~stewart_jax.cable_robot.system_momentum` with the lower
+    """``∂(p, h)/∂(ṫ_C, ω)`` of :func:`~stewart_jax.cable_robot._scenario.system_momentum` with the lower
     platform held: the inertia the coupled simulation sees, whose legs turn without spin about
     their axes (eq. 45). It differs from :func:`cabin_mass_matrix` by the legs' spin terms
     (≈1e-4 of the coupling block, off-axis leg centres of mass) and is not exactly symmetric."""
@@ -223,7 +223,7 @@ def modes_map(
 ) -> CabinModes:
     """:func:`cabin_modes` at every row of ``positions`` (attitudes identity when ``None``):
     the static equilibria (given stacked in ``statics``, or solved one by one with
-    :data:`~stewart_jax.cable_robot.static_equilibrium_jit`), then stiffness, mass matrix and
+    :data:`~stewart_jax.cable_robot._statics.static_equilibrium_jit`), then stiffness, mass matrix and
     modes in one ``vmap``-ed, jitted call; every field gains a leading axis ``n``. Positions
     without an equilibrium have ``ok = False``."""
     pos = np.asarray(positions, dtype=np.float64)

@@ -20,7 +20,7 @@ accelerations ``(ẗ_C, ε_C)`` through eqs. 34, 47–50 and 52–53, and it dep
 ``a = -J⁻¹ r(0)``. No fixed-point iteration between the cable model and
 the Stewart model is needed (the paper's Fig. 5 iterates). Only the legs' total wrench on the
 upper platform enters eqs. 57–58, so the time loop takes it from the momentum balance of legs +
-lower platform (:func:`~stewart_jax.cable_robot.reaction_wrench`), which equals eq. 29 summed without
+lower platform (:func:`~stewart_jax.cable_robot._stewart.reaction_wrench`), which equals eq. 29 summed without
 solving eq. 22 for the six leg forces; the leg forces are computed where they are reported.
 
 The acceleration of B's origin is ``ẗ_B = ẗ_C + ε_C × (R_C t_B) + ω_C × (ω_C × R_C t_B)``;

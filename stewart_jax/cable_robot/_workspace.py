@@ -221,7 +221,7 @@ def cabin_statics(
     - ``params``: :class:`~stewart_jax.cable_robot.FastParams`.
     - ``position``: ``Float[Array, "3"]`` (m); ``R``: ``Float[Array, "3 3"]``.
     - ``static``: the equilibrium at this pose if already solved (e.g. by
-      :data:`~stewart_jax.cable_robot.static_equilibrium_jit`); solved here when ``None``.
+      :data:`~stewart_jax.cable_robot._statics.static_equilibrium_jit`); solved here when ``None``.
     - ``tension_floor``: least admissible tension anywhere in a cable (N), 0 by default.
     - ``clearance``: least admissible height of a cable above the reflector (m), 0 by default.
 
@@ -280,7 +280,7 @@ def assess(
     clearance: float = 0.0,
 ) -> CableStatics:
     """:func:`cabin_statics` through two compiled functions: the 24×24 solve of
-    :data:`~stewart_jax.cable_robot.static_equilibrium_jit` (the one the rest of the package
+    :data:`~stewart_jax.cable_robot._statics.static_equilibrium_jit` (the one the rest of the package
     compiles; skipped when ``static`` is given) and the tensions/feasibility on its result.
 
     NOTE: on CPU a ``vmap`` of the 24×24 Newton solve is no faster per position than a loop

@@ -35,6 +35,7 @@ import numpy as np
 from jax.scipy.special import gammainc, gammaincc
 from jaxtyping import Float
 
+from .._units import report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
 from ._identifiability import identifiability_report, pose_noise_covariance, stroke_noise_covariance
 from ._problem import CalibrationData
@@ -152,10 +153,11 @@ def assess_calibration(
     chi2, whitened = _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rep.rank)
     dof = 6 * m - rep.rank
     gross = float(np.sqrt(whitened / (6 * m)))
+    rms_reading = report_factor(calibrated.reading_unit) * float(np.sqrt(np.mean(residuals**2)))
     if gross > GROSS_MISFIT_RATIO:
         warnings.append(
             f"gross misfit: the stroke residuals are {gross:.3g}× the stated noise (σ = {sigma_um} µm, "
-            f"{sigma_arcsec}″; RMS {1e3 * float(np.sqrt(np.mean(residuals**2))):.4g} µm), far beyond what any "
+            f"{sigma_arcsec}″; RMS {rms_reading:.4g} {report_unit(calibrated.reading_unit)}), far beyond what any "
             "noise explains. Likely causes: the units (poses in mm and degrees, readings in mm: angles in "
             "radians under a degree header, or a file in metres), the wrong geometry for this mechanism "
             "(--geometry), or the wrong parameter set (--param-set); the calibrated values are not to be used")

@@ -1,8 +1,10 @@
 """Measured calibration data as CSV (the columns of ``docs/conventions.md``).
 
-One row per pose; header row; strokes ``q1``…``q6`` (mm), pose ``x, y, z`` (mm) and
-``rx, ry, rz`` (degrees); optional ``dir1``…``dir6`` (±1), ``temperature`` (°C), ``time`` (s);
-other columns ignored. Numbers are written with ``repr`` (lossless float64).
+One row per pose; header row; readings ``q1``…``q6`` (mm for a stroke; degrees for a rotary
+family's crank angles, ``reading_unit="rad"``), pose ``x, y, z`` (mm) and ``rx, ry, rz``
+(degrees); optional ``dir1``…``dir6`` (±1), ``temperature`` (°C), ``time`` (s); other columns
+ignored. Numbers are written with ``repr`` (lossless float64), degrees exactly as
+:func:`format_degrees` writes them.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from decimal import Context, Decimal, InvalidOperation
 import numpy as np
 
 from .._files import write_text_atomic
+from .._units import READING_UNITS, check_unit
 from ._problem import CalibrationData, make_calibration_data
 
 STROKE_COLUMNS = tuple(f"q{i}" for i in range(1, 7))
@@ -32,16 +35,20 @@ def write_csv(
     path: str | os.PathLike[str],
     data: CalibrationData,
     extra: Mapping[str, np.ndarray] | None = None,
+    *,
+    reading_unit: str = "mm",
 ) -> None:
-    """Write ``data`` (mm, rad inside) as measurement CSV (mm, degrees; ``docs/conventions.md``).
+    """Write ``data`` (mm, rad inside) as measurement CSV (mm, degrees; ``docs/conventions.md``);
+    ``reading_unit``: the mechanism's (``"rad"``: the readings are crank angles, written in degrees).
     ``extra`` adds columns
     (e.g. the true poses of a simulation), each an array of length m or shape (m, k) with
     names given as ``name`` or a tuple of k names via a mapping key ``"a,b,c"``."""
     q = np.asarray(data.strokes, dtype=np.float64)
     p = np.asarray(data.poses, dtype=np.float64)
     cols: dict[str, np.ndarray | list[str]] = {}
+    angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
     for i, c in enumerate(STROKE_COLUMNS):
-        cols[c] = q[:, i]
+        cols[c] = [format_degrees(r) for r in q[:, i]] if angular else q[:, i]
     for i, c in enumerate(POSE_COLUMNS):
         cols[c] = p[:, i] if i < 3 else [format_degrees(r) for r in p[:, i]]
     if data.directions is not None:
@@ -133,13 +140,15 @@ def read_csv_columns(
     return out
 
 
-def read_csv(path: str | os.PathLike[str]) -> CalibrationData:
-    """Read measurement CSV (``docs/conventions.md``) into :class:`CalibrationData` (mm, radians).
+def read_csv(path: str | os.PathLike[str], *, reading_unit: str = "mm") -> CalibrationData:
+    """Read measurement CSV (``docs/conventions.md``) into :class:`CalibrationData` (mm, radians);
+    ``reading_unit``: the mechanism's (``"rad"``: ``q1``…``q6`` are crank angles in degrees).
 
     Raises ``ValueError`` naming the problem: a missing column, a NaN, an angle beyond
-    ±10° in a degree column, a direction other than ±1.
+    ±10° in a pose's degree column, a direction other than ±1.
     """
-    cols = read_csv_columns(path, degree_columns=POSE_COLUMNS[3:])
+    angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
+    cols = read_csv_columns(path, degree_columns=POSE_COLUMNS[3:] + (STROKE_COLUMNS if angular else ()))
     missing = [c for c in REQUIRED_COLUMNS if c not in cols]
     if missing:
         raise ValueError(f"{path}: missing column(s) {missing}; required: {list(REQUIRED_COLUMNS)}")

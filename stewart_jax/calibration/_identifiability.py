@@ -31,7 +31,8 @@ from ._problem import ARCSEC, UM
 
 
 def identification_jacobian(geometry: AbstractMechanism, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
-    """``∂IK(P_j, u)/∂u`` at ``u = geometry.params``, stacked over the poses (mm/mm)."""
+    """``∂IK(P_j, u)/∂u`` at ``u = geometry.params``, stacked over the poses (reading unit per
+    parameter unit)."""
     return geometry.parameter_jacobian(poses)
 
 
@@ -57,14 +58,15 @@ class IdentifiabilityReport(NamedTuple):
     rank: int
     """Numerical rank at ``rtol`` relative to the largest singular value."""
     unidentifiable: np.ndarray
-    """``(n − rank, n)``: parameter combinations (unit vectors in mm) the poses cannot see."""
+    """``(n − rank, n)``: parameter combinations (unit vectors in the parameters' units) the poses
+    cannot see."""
     observability: dict[str, float]
     """O1 (Borm & Menq), O2 (Driels & Pathre), O3 and O4 (Nahvi & Hollerbach)."""
     param_cov: np.ndarray
-    """``(n, n)`` predicted covariance of the least-squares estimate (mm²), on the
-    identifiable subspace (pseudo-inverse)."""
+    """``(n, n)`` predicted covariance of the least-squares estimate (the parameters' units, e.g.
+    mm² or mm·rad), on the identifiable subspace (pseudo-inverse)."""
     param_std: np.ndarray
-    """``(n,)`` square roots of the diagonal of ``param_cov`` (mm)."""
+    """``(n,)`` square roots of the diagonal of ``param_cov`` (each parameter's unit)."""
 
 
 def identifiability_report(
@@ -248,7 +250,7 @@ def calibration_uncertainty(
     """Uncertainty of a least-squares calibration from ``poses`` measured with pose noise
     σ = ``sigma_um`` µm / ``sigma_arcsec`` ″, linearised at the calibrated geometry.
 
-    Returns ``param_std`` (n, mm), ``rank`` and ``condition_number`` of the identification
+    Returns ``param_std`` (n, each parameter's unit), ``rank`` and ``condition_number`` of the identification
     Jacobian, and ``control_error_std`` ``(n, 6)`` (µm, ″) — the predicted standard deviation of
     the control error at ``evaluation_poses`` (default: the calibration poses); ±2 of it is the
     ~95 % band of an unbiased calibration.

@@ -35,7 +35,8 @@ from ..mechanism._kinematics import forward_kinematics
 class CalibrationData(NamedTuple):
     """Measured data of ``m`` poses (Wang et al. 2018, eqs. 7–8; the measurement CSV's columns).
 
-    - ``strokes``: ``Float[Array, "m 6"]``, measured slider strokes ``q'`` (mm).
+    - ``strokes``: ``Float[Array, "m 6"]``, measured actuator readings ``q'`` (the mechanism's
+      reading unit: mm for a stroke, rad for a crank angle).
     - ``poses``: ``Float[Array, "m 6"]``, measured poses ``P'_a`` (mm, rad).
     - ``directions``: ``Float[Array, "m 6"] | None``, approach direction (+1/−1) per slider.
     - ``temperature``: ``Float[Array, "m"] | None``, °C.
@@ -91,7 +92,8 @@ def make_calibration_data(
 def stroke_residuals(
     params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, "6m"]:
-    """``E(u) = [e_11 … e_6m]``, ``e_j = q'_j − IK(P'_aj, u)`` (eqs. 7–8), in mm, where
+    """``E(u) = [e_11 … e_6m]``, ``e_j = q'_j − IK(P'_aj, u)`` (eqs. 7–8), in the reading unit
+    (mm, or rad for a rotary family), where
     ``IK(·, u)`` is ``mechanism.with_params(u)`` (``mechanism`` supplies everything that is not
     calibrated, e.g. the 6-PSS's ``v0``).
 
@@ -107,7 +109,7 @@ def stroke_residuals(
 def calibration_cost(
     params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, ""]:
-    """``S(u) = Σ_j Σ_i e_ij²`` (eq. 9), mm²; +inf where a measured pose is unreachable
+    """``S(u) = Σ_j Σ_i e_ij²`` (eq. 9), the reading unit squared (mm²); +inf where a measured pose is unreachable
     under ``u`` or the value is not finite (so that optimisers reject it)."""
     sol = mechanism.with_params(params).solve_inverse_kinematics(data.poses)
     s = jnp.sum((data.strokes - sol.strokes) ** 2)
@@ -122,8 +124,8 @@ class CalibrationProblem(eqx.Module):
     - ``data``: :class:`CalibrationData` of ``m`` poses.
     - ``mechanism``: the nominal :class:`~stewart_jax.mechanism.AbstractMechanism`; its
       ``with_params(u)`` is the model being calibrated.
-    - ``lower``, ``upper``: ``Float[Array, " n"]``, the box Ω (mm).
-    - ``initial``: ``Float[Array, " n"]``, the nominal parameters (mm).
+    - ``lower``, ``upper``: ``Float[Array, " n"]``, the box Ω (each parameter in its unit).
+    - ``initial``: ``Float[Array, " n"]``, the nominal parameters.
     """
 
     data: CalibrationData
@@ -158,7 +160,7 @@ def population_objective(params: Float[Array, " n"], problem: CalibrationProblem
     ``jax.vmap`` over ``params`` is :meth:`CalibrationProblem.population_cost`.
 
     NOTE: population solvers are written per nest and evaluate a population with ``jax.vmap``
-    (:func:`stewart_jax.optimise.evaluate`), which keeps them generic; this function's batching
+    (``evaluate`` in ``stewart_jax/optimise/_driver.py``), which keeps them generic; this function's batching
     rule (``jax.custom_batching.custom_vmap``) swaps the vmapped per-nest cost for the family's
     population layout whenever only ``params`` is batched (``problem`` batched too, e.g. one
     problem per trial on the same axis, falls back to ``vmap`` of the cost). Derivatives, in
@@ -188,21 +190,25 @@ def _batched_cost_vmap(axis_size, in_batched, params, problem):
 
 
 def feasible_box(
-    nominal: AbstractMechanism, half_width: float = 10.0
+    nominal: AbstractMechanism, half_width: float = 10.0, half_width_mrad: float | None = None
 ) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
-    """Ω = nominal ± ``half_width`` (mm) per parameter. The paper's experiment uses 2.5 mm;
-    the simulation study needs ≥ 7 mm (Table 1's actual values lie up to 6.9 mm from nominal)
-    and uses 10 mm."""
-    if not half_width > 0:
-        raise ValueError(f"half_width must be positive (mm), got {half_width}")
+    """Ω = nominal ± ``half_width`` (mm) per length parameter and ± ``half_width_mrad`` (mrad;
+    default the same number) per angle parameter, each in the parameter's own unit. The paper's
+    experiment uses 2.5 mm; the simulation study needs ≥ 7 mm (Table 1's actual values lie up to
+    6.9 mm from nominal) and uses 10 mm."""
+    half_width_mrad = half_width if half_width_mrad is None else half_width_mrad
+    if not (half_width > 0 and half_width_mrad > 0):
+        raise ValueError(f"half_width must be positive (mm; mrad for angles), got {half_width}, {half_width_mrad}")
     u = nominal.params
-    return u - half_width, u + half_width
+    half = jnp.asarray(nominal.natural_scales(half_width, half_width_mrad))
+    return u - half, u + half
 
 
 def calibration_problem(
-    data: CalibrationData, nominal: AbstractMechanism, half_width: float = 10.0
+    data: CalibrationData, nominal: AbstractMechanism, half_width: float = 10.0, half_width_mrad: float | None = None
 ) -> CalibrationProblem:
-    """The problem of Wang et al. (2018) §1.2 with Ω = nominal ± ``half_width`` mm."""
+    """The problem of Wang et al. (2018) §1.2 with Ω = nominal ± ``half_width`` mm (±
+    ``half_width_mrad`` mrad for angle parameters, default the same number)."""
     if not isinstance(nominal, AbstractMechanism):
         raise TypeError(
             f"nominal must be a mechanism (e.g. stewart_jax.nominal_geometry()), got {type(nominal).__name__}"
@@ -213,7 +219,7 @@ def calibration_problem(
             f"{data.n_poses} poses give {6 * data.n_poses} residuals for {n_params} parameters: "
             f"at least {-(-n_params // 6)} poses are needed (the paper uses 8 in simulation, 120 in the experiment)"
         )
-    lo, hi = feasible_box(nominal, half_width)
+    lo, hi = feasible_box(nominal, half_width, half_width_mrad)
     return CalibrationProblem(data, nominal, lo, hi, nominal.params)
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .._units import COMPONENTS
+from .._units import COMPONENTS, ascii_unit, report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
 from ._assessment import CalibrationAssessment
 
@@ -62,9 +62,11 @@ def calibration_report(
     lines += [f"Solver status: `{result['status']}`; data status: `{a.status}`. {verdict}", ""]
     if a.warnings:
         lines += ["### Warnings", ""] + [f"- {w}" for w in a.warnings] + [""]
+    reading = report_unit(nominal.reading_unit)
     lines += ["## Fit", "",
               f"- poses: {result['n_poses']}; parameters: {a.n_params}",
-              f"- cost S = {result['cost']:.6g} mm², RMS stroke residual {result['rms_residual_um']:.4g} µm",
+              f"- cost S = {result['cost']:.6g} {nominal.reading_unit}², RMS reading residual "
+              f"{result[f'rms_residual_{ascii_unit(reading)}']:.4g} {reading}",
               f"- χ² = {a.chi2:.4g} on {a.dof} degrees of freedom (p = {a.p_value:.3g}); residuals "
               f"{a.rms_ratio:.3g}× the stated noise",
               f"- identification rank {a.rank} of {a.n_params}, condition number {a.condition_number:.3g}",
@@ -76,11 +78,13 @@ def calibration_report(
     if heldout is not None:
         lines += [f"### At {len(heldout['rows'])} held-out poses (calibrated without them)", ""]
         lines += _error_table(heldout["errors"]) + [""]
-    lines += ["## Parameters", "", "| parameter | nominal | calibrated | change | std |", "|---|---|---|---|---|"]
+    lines += ["## Parameters", "", "| parameter | unit | nominal | calibrated | change | std |",
+              "|---|---|---|---|---|---|"]
     u0, u1 = np.asarray(nominal.params), np.asarray(calibrated.params)
-    for name, a0, a1, s in zip(nominal.param_names, u0, u1, a.param_std, strict=True):
-        std = "not identifiable" if not np.isfinite(s) else f"{s:.3g}"
-        lines.append(f"| {name} | {a0:.6f} | {a1:.6f} | {a1 - a0:+.6f} | {std} |")
-    lines += ["", "Lengths in mm (tilt angles of a 6-PSS's 54-parameter set in mrad); std from the stated pose "
-              "noise, linearised at the calibrated parameters."]
+    for name, unit, a0, a1, s in zip(nominal.param_names, nominal.param_units, u0, u1, a.param_std, strict=True):
+        f, small = report_factor(unit), report_unit(unit)
+        std = "not identifiable" if not np.isfinite(s) else f"{s * f:.3g} {small}"
+        lines.append(f"| {name} | {unit} | {a0:.6f} | {a1:.6f} | {(a1 - a0) * f:+.4g} {small} | {std} |")
+    lines += ["", "Each parameter in its unit (mm for lengths, rad or mrad for angles); the change and the std in "
+              "µm or µrad; std from the stated pose noise, linearised at the calibrated parameters."]
     return "\n".join(lines) + "\n"

@@ -145,18 +145,25 @@ class LaserTracker(eqx.Module):
     sigma_mm: float = 3e-3
 
 
-def perturbed(mechanism: AbstractMechanism, key: PRNGKeyArray, sigma_mm: float) -> AbstractMechanism:
+def perturbed(
+    mechanism: AbstractMechanism, key: PRNGKeyArray, sigma_mm: float, sigma_mrad: float | None = None
+) -> AbstractMechanism:
     """A "true" mechanism for a simulation: every calibration parameter moved by an independent
-    Gaussian error of σ = ``sigma_mm`` (mm) from ``mechanism``'s."""
-    if not sigma_mm >= 0:
-        raise ValueError(f"sigma_mm must be >= 0 (mm), got {sigma_mm}")
+    Gaussian error of σ = ``sigma_mm`` (mm) for a length and ``sigma_mrad`` (mrad; default the
+    same number as ``sigma_mm``) for an angle, each in the parameter's own unit
+    (:meth:`~stewart_jax.mechanism.AbstractMechanism.natural_scales`)."""
+    sigma_mrad = sigma_mm if sigma_mrad is None else sigma_mrad
+    if not (sigma_mm >= 0 and sigma_mrad >= 0):
+        raise ValueError(f"sigma_mm and sigma_mrad must be >= 0 (mm, mrad), got {sigma_mm}, {sigma_mrad}")
     u = mechanism.params
-    return mechanism.with_params(u + sigma_mm * jax.random.normal(key, u.shape, dtype=jnp.float64))
+    scale = jnp.asarray(mechanism.natural_scales(sigma_mm, sigma_mrad))
+    return mechanism.with_params(u + scale * jax.random.normal(key, u.shape, dtype=jnp.float64))
 
 
 def tracker_for(mechanism: AbstractMechanism, sigma_um: float = 3.0) -> LaserTracker:
     """Three target balls on the moving platform, 120° apart on the circle of its joints and at
-    their mean height in frame A (for the paper's mechanism: :func:`default_tracker`'s layout)."""
+    their mean height in frame A (for the paper's mechanism: 100 mm from A's z axis at 90°, 210°
+    and 330°, 90 mm above A's origin)."""
     layout = mechanism.tracker_layout()
     if layout is not None:
         return default_tracker(*layout, sigma_um=sigma_um)

@@ -1,64 +1,47 @@
 """Model-discrepancy workflow: detect where a calibrated model disagrees with the data, name
 the missing effect from a registry of candidates, add it, show the gap shrink.
 
-The workflow (:func:`diagnose`, :func:`diagnose_many`) is generic over
-:class:`AbstractDiscrepancyModel`. The 6-PSS calibration model of Wang et al. 2018, "Improved
-cuckoo calibration method of space telescope secondary mirror adjusting mechanism", Infrared
-and Laser Engineering 47(5) (:class:`PSSModel`) and its candidate effects are registered under
-``"6-pss"``, the 6-UPS strut model (:class:`UPSModel`) and its effects under ``"6-ups"``;
-:func:`model_for` picks the model of a mechanism's family, :func:`effects_for` lists a model's
-effects and :func:`simulate_hidden_effect` hides any of them in simulated measurements.
+The workflow (:func:`diagnose` → :class:`DiagnosisReport`) is generic over
+:class:`AbstractDiscrepancyModel`. :func:`model_for` gives the model of a mechanism's family:
+the 6-PSS calibration model of Wang et al. 2018, "Improved cuckoo calibration method of space
+telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5), with
+its candidate effects registered under ``"6-pss"``, the 6-UPS strut model under ``"6-ups"``,
+the 6-RUS rotary model under ``"6-rus"``; :func:`effect_names` and :func:`get_effect` read the
+effect registry (:func:`register_effect`, :func:`register_model_family` extend it), and
+:func:`simulate_hidden_effect` hides any effect in simulated measurements. A laser tracker's
+points (:func:`point_rows`) are questioned by :func:`points_model`, the family's model seen
+through the tracker with its noise.
 
 The FAST feed-support adapter (Yin, Jiang, Chen, Yao, "Dynamic modeling of a cable-driven
-parallel robot with a Stewart platform for use in FAST"; :class:`FastModel`,
-:func:`fast_model`, :func:`fast_responses`, :func:`simulate_fast_measurement`, effects under
+parallel robot with a Stewart platform for use in FAST"; :func:`fast_responses`,
+:func:`fast_model`, :func:`simulate_fast_measurement`, :class:`FastData`, effects under
 ``"fast"``) is loaded on first access, so that importing this package does not load the
-cable-robot simulator; ``plot_residuals`` (matplotlib) likewise.
+cable-robot simulator. The residual figures are in :mod:`stewart_jax.plotting`.
 """
 
-from typing import Any
+from typing import Any as _Any
 
-from . import _effects as _effects, _ups_effects as _ups_effects  # register the 6-PSS and 6-UPS candidates
-from ._driver import (
-    MIN_DOF as MIN_DOF,
-    check_sizes as check_sizes,
-    diagnose as diagnose,
-    diagnose_many as diagnose_many,
-    select_effects as select_effects,
-    split_rows as split_rows,
-)
-from ._effects import DRIFT_TIME_UNIT_S as DRIFT_TIME_UNIT_S, T_REF_C as T_REF_C
+from .. import _moved
+from . import _effects as _effects, _rus as _rus, _ups_effects as _ups_effects  # register every family's candidates
+from ._driver import diagnose as diagnose
 from ._families import (
-    ModelFamily as ModelFamily,
     load_fitted_model as load_fitted_model,
-    model_families as model_families,
     model_for as model_for,
-    model_name_for as model_name_for,
     register_model_family as register_model_family,
     save_fitted_model as save_fitted_model,
 )
 from ._hidden import (
-    Conditions as Conditions,
     HiddenEffectData as HiddenEffectData,
-    HiddenTruth as HiddenTruth,
-    hidden_pose_set as hidden_pose_set,
     random_conditions as random_conditions,
     simulate_hidden_effect as simulate_hidden_effect,
     true_control_error as true_control_error,
     write_hidden_csv as write_hidden_csv,
 )
-from ._pss import (
-    PSS_MODEL_NAME as PSS_MODEL_NAME,
-    PSSModel as PSSModel,
-    PSSState as PSSState,
-    pss_model as pss_model,
-    pss_strokes as pss_strokes,
-)
+from ._points import point_rows as point_rows, points_model as points_model
 from ._registry import (
     AbstractDiscrepancyModel as AbstractDiscrepancyModel,
     Effect as Effect,
     effect_names as effect_names,
-    effects_for as effects_for,
     get_effect as get_effect,
     register_effect as register_effect,
 )
@@ -68,43 +51,17 @@ from ._report import (
     FittedModel as FittedModel,
     SkippedEffect as SkippedEffect,
 )
-from ._statistics import (
-    Bin as Bin,
-    FactorDependence as FactorDependence,
-    WhereAnalysis as WhereAnalysis,
-    WhereFlag as WhereFlag,
-    bic as bic,
-    chi2_sf as chi2_sf,
-    f_sf as f_sf,
-    heldout_chi2 as heldout_chi2,
-    nested_p as nested_p,
-    where_analysis as where_analysis,
-)
-from ._subspace import Absorption as Absorption, absorption as absorption
-from ._ups import (
-    UPS_MODEL_NAME as UPS_MODEL_NAME,
-    UPSModel as UPSModel,
-    UPSState as UPSState,
-    gravity_axial_loads as gravity_axial_loads,
-    ups_model as ups_model,
-    ups_readings as ups_readings,
-)
 
-_CABLE_ROBOT = ("FastData", "FastModel", "FastResponses", "FastState", "fast_model", "fast_responses",
-                "simulate_fast_measurement")
+_CABLE_ROBOT = ("FastData", "fast_model", "fast_responses", "simulate_fast_measurement")
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> _Any:
     if name in _CABLE_ROBOT:
         from . import _cable_robot
 
         return getattr(_cable_robot, name)
-    if name == "plot_residuals":  # a figure: matplotlib is loaded on first use only
-        from ..plotting import plot_residuals
-
-        return plot_residuals
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_CABLE_ROBOT) | {"plot_residuals"})
+    return sorted(set(globals()) | set(_CABLE_ROBOT))

@@ -16,6 +16,7 @@ from jaxtyping import Array, Float
 from .._math import euler_angles, rotation_matrix
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
+from ..mechanism._pss import _tilted
 from ._pss import MODEL_NAME, PSSState
 from ._registry import register_effect
 
@@ -42,17 +43,13 @@ def stroke_scale(theta: Float[Array, "6"], data: CalibrationData, state: PSSStat
     return state._replace(gain=state.gain / (1.0 + theta))
 
 
-def _tilted_axes(theta: Float[Array, "12"]) -> Float[Array, "6 3"]:
-    alpha, beta = theta[:6], theta[6:]
-    return jnp.stack([jnp.cos(alpha) * jnp.sin(beta), -jnp.sin(alpha), jnp.cos(alpha) * jnp.cos(beta)], axis=-1)
-
-
 @register_effect(MODEL_NAME, "actuator_tilt", n_params=12, scale=1e-4, unit="µrad", report_factor=1e6)
 def actuator_tilt(theta: Float[Array, "12"], data: CalibrationData, state: PSSState) -> PSSState:
-    """Slider axes not parallel to B's z axis: leg i's slider moves along
-    ``Ry(β_i)·Rx(α_i)·e_z``; ``theta = [α_1..α_6, β_1..β_6]`` (rad). The lower joint at zero
-    stroke stays at ``Bc_i``."""
-    return state._replace(axes=_tilted_axes(theta))
+    """Slider axes not along the model's: leg i's slider moves along
+    ``cos α_i·cos β_i·n_i + cos α_i·sin β_i·u_i − sin α_i·v_i`` with ``(u_i, v_i, n_i)`` the right-handed
+    frame of the model's axis ``n_i`` (``Ry(β_i)·Rx(α_i)·e_z`` for the paper's vertical sliders);
+    ``theta = [α_1..α_6, β_1..β_6]`` (rad). The lower joint at zero stroke stays at ``Bc_i``."""
+    return state._replace(axes=_tilted(state.axes, theta))
 
 
 @register_effect(
@@ -76,8 +73,9 @@ def backlash(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -
 def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: PSSState) -> PSSState:
     """Rod lengths change with temperature: ``L_i(T) = L_i·(1 + α_i·(T − 20 °C))``, ``α_i`` in
     1/K (one coefficient per rod: rods of one material share it, but their temperatures need
-    not)."""
-    length0 = jnp.linalg.norm(state.upper + state.v0 - state.lower, axis=-1)
+    not); ``L_i`` the base model's rod length."""
+    length0 = (jnp.linalg.norm(state.upper + state.v0 - state.lower, axis=-1) if state.rod_lengths is None
+               else state.rod_lengths)
     return state._replace(dlength=state.dlength + length0 * theta * (data.temperature[:, None] - T_REF_C))
 
 

@@ -13,8 +13,9 @@ through it. The 6-PSS model (Wang et al. 2018, "Improved cuckoo calibration meth
 telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)) and the
 6-UPS strut model register themselves here.
 
-Every model registered here has the pose-noise fields ``sigma_mm``, ``sigma_rad`` and
-``sigma_stroke_mm`` (mm, rad, mm), which the model file records.
+Every model registered here has the pose-noise fields ``sigma_mm`` and ``sigma_rad`` (mm, rad)
+and a reading noise ``reading_sigma`` (the reading's unit), which the model file records
+(``sigma_stroke_um`` for a linear family, ``sigma_reading_urad`` for a rotary one).
 """
 
 from __future__ import annotations
@@ -86,16 +87,18 @@ def model_name_for(family: str) -> str:
     return _entry_for_family(family).model_name
 
 
-def check_noise(sigma_um: float, sigma_arcsec: float, sigma_stroke_um: float) -> None:
+def check_noise(sigma_um: float, sigma_arcsec: float, sigma_stroke_um: float,
+                reading_name: str = "sigma_stroke_um") -> None:
     """Clear errors for a noise model the whitener cannot invert: every σ finite and ≥ 0, and
-    both pose σ > 0 unless the readings have noise of their own."""
-    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), ("sigma_stroke_um", sigma_stroke_um)):
+    both pose σ > 0 unless the readings have noise of their own (``reading_name``: how the
+    reading noise is called, with its unit: ``sigma_stroke_um``, ``sigma_reading_urad``)."""
+    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), (reading_name, sigma_stroke_um)):
         if not (np.isfinite(s) and s >= 0):
             raise ValueError(f"{name} must be a finite number ≥ 0, got {s}")
     if sigma_stroke_um == 0 and (sigma_um == 0 or sigma_arcsec == 0):
         raise ValueError(
-            "the stroke-residual covariance J·Σ·Jᵀ is singular unless both pose sigmas are > 0 "
-            f"(got sigma_um={sigma_um}, sigma_arcsec={sigma_arcsec}); give both, or sigma_stroke_um > 0"
+            "the reading-residual covariance J·Σ·Jᵀ is singular unless both pose sigmas are > 0 "
+            f"(got sigma_um={sigma_um}, sigma_arcsec={sigma_arcsec}); give both, or {reading_name} > 0"
         )
 
 
@@ -103,7 +106,8 @@ def model_for(
     mechanism: AbstractMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
 ) -> AbstractDiscrepancyModel:
     """The discrepancy model of ``mechanism``'s family, starting from ``mechanism``, with pose noise
-    σ (µm, ″) and reading noise σ (µm); a clear error for a family without a model."""
+    σ (µm, ″) and reading noise σ (in the readings' report unit: µm for a linear family, µrad
+    for a rotary one); a clear error for a family without a model."""
     if not isinstance(mechanism, AbstractMechanism):
         raise TypeError(f"model_for needs a mechanism (e.g. stewart_jax.load_mechanism(...)), got {mechanism!r}")
     return _entry_for_family(mechanism.family).factory(mechanism, sigma_um, sigma_arcsec, sigma_stroke_um)
@@ -126,7 +130,7 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
         "v0": np.asarray(mechanism.v0).tolist(),
         "sigma_um": float(m.sigma_mm) / UM,
         "sigma_arcsec": float(m.sigma_rad) / ARCSEC,
-        "sigma_stroke_um": float(m.sigma_stroke_mm) / UM,
+        _reading_sigma_key(mechanism): float(m.reading_sigma) / (UM if mechanism.reading_unit == "mm" else 1e-6),
         "effects": [
             {"effect": e.name, "params": np.asarray(t).tolist(), "report_params": r["params"], "report_unit": e.unit}
             | ({"terms": e.apply.terms.to_dict()} if hasattr(e.apply, "terms") else {})
@@ -137,6 +141,12 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
     from .._files import json_text, write_text_atomic
 
     write_text_atomic(path, json_text(out))
+
+
+def _reading_sigma_key(mechanism: AbstractMechanism) -> str:
+    """The model file's key of the reading noise: ``sigma_stroke_um`` (linear readings) or
+    ``sigma_reading_urad`` (angular)."""
+    return "sigma_stroke_um" if mechanism.reading_unit == "mm" else "sigma_reading_urad"
 
 
 def _legacy_pss_geometry(d: dict[str, Any]) -> dict[str, Any]:
@@ -180,7 +190,8 @@ def load_fitted_model(path: str | os.PathLike[str]):
             f"{path}: a {entry.family} model has {mechanism.n_params} params, the file gives {params.shape}"
         )
     mechanism = mechanism.with_params(jnp.asarray(params))
-    model = entry.factory(mechanism, d.get("sigma_um", 0.1), d.get("sigma_arcsec", 0.1), d.get("sigma_stroke_um", 0.0))
+    model = entry.factory(mechanism, d.get("sigma_um", 0.1), d.get("sigma_arcsec", 0.1),
+                          d.get(_reading_sigma_key(mechanism), 0.0))
     from ._discovery import DiscoveredTerms
 
     effects = tuple(

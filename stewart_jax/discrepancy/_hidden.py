@@ -255,7 +255,8 @@ def write_hidden_csv(path: str | os.PathLike[str], sim: HiddenEffectData) -> Non
     ``stewart-jax diagnose``."""
     p = np.array(sim.true_poses)
     p[:, 3:] = np.degrees(p[:, 3:])
-    write_csv(path, sim.data, {",".join(f"true_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")): p})
+    write_csv(path, sim.data, {",".join(f"true_{c}" for c in ("x", "y", "z", "rx", "ry", "rz")): p},
+              reading_unit=sim.truth.geometry.reading_unit)
 
 
 def true_control_error(

@@ -4,23 +4,30 @@ kinematic Jacobian, plus optional reading noise.
 
 The residual of one pose, ``e = q' − IK(P')``, is driven by the pose noise ε through
 ``e ≈ −J ε`` (``J = ∂q/∂P``), so its covariance is ``J Σ_P Jᵀ + σ_q² I`` — correlated across the
-six legs and varying with the pose. A family's model (6-PSS: the mechanism of Wang et al. 2018,
-"Improved cuckoo calibration method of space telescope secondary mirror adjusting mechanism",
-Infrared and Laser Engineering 47(5); 6-UPS strut hexapods) supplies ``pose_jacobians`` and its
-own state, effects and factors.
+six legs and varying with the pose.
+
+:class:`AbstractMechanismModel` wraps a mechanism of any family and any parameter set: the base
+parameters are the mechanism's ``params`` (scaled by their units: 1 µm per length, 1 µrad per
+angle), the prediction is the family's own leg function, the pose Jacobian the mechanism's, and the
+readings are reported in µm (linear) or µrad (angular). A family's model (6-PSS: the mechanism of
+Wang et al. 2018, "Improved cuckoo calibration method of space telescope secondary mirror adjusting
+mechanism", Infrared and Laser Engineering 47(5); 6-UPS strut hexapods; 6-RUS rotary hexapods)
+adds only its state — what its effects may change — and its effects.
 """
 
 from __future__ import annotations
 
 import abc
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
 from .._linalg import cholesky, lower_inverse
-from .._units import ARCSEC, COMPONENTS, UM
+from .._units import ARCSEC, COMPONENTS, UM, ascii_unit, report_factor, report_unit
 from ..calibration._problem import CalibrationData
+from ..mechanism._abstract import AbstractMechanism
 from ._registry import AbstractDiscrepancyModel
 
 CONDITION_NAMES = ("directions", "temperature", "time")
@@ -29,8 +36,14 @@ CONDITION_NAMES = ("directions", "temperature", "time")
 
 class AbstractPoseNoiseModel(AbstractDiscrepancyModel):
     """A six-actuator model whose data are :class:`~stewart_jax.calibration.CalibrationData` and
-    whose noise is on the measured pose. Subclasses have the fields ``sigma_mm``, ``sigma_rad`` and
-    ``sigma_stroke_mm`` and implement :meth:`pose_jacobians`."""
+    whose noise is on the measured pose. Subclasses have the fields ``sigma_mm`` and ``sigma_rad``
+    and a reading noise :attr:`reading_sigma` (default: the field ``sigma_stroke_mm``), and
+    implement :meth:`pose_jacobians`."""
+
+    @property
+    def reading_sigma(self) -> float | Array:
+        """σ of each actuator reading, in the reading's unit (mm, or rad for a crank)."""
+        return self.sigma_stroke_mm
 
     @abc.abstractmethod
     def pose_jacobians(self, base: Float[Array, " p"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
@@ -40,11 +53,11 @@ class AbstractPoseNoiseModel(AbstractDiscrepancyModel):
         return data.strokes
 
     def noise_covariance(self, base: Float[Array, " p"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        """``J Σ_P Jᵀ + σ_q² I`` per pose (mm²)."""
+        """``J Σ_P Jᵀ + σ_q² I`` per pose (the reading unit squared)."""
         var = jnp.concatenate([jnp.full(3, self.sigma_mm**2), jnp.full(3, self.sigma_rad**2)])
         jac = self.pose_jacobians(base, data.poses)
         cov = jnp.einsum("mik,k,mjk->mij", jac, var, jac)
-        return cov + self.sigma_stroke_mm**2 * jnp.eye(6)
+        return cov + self.reading_sigma**2 * jnp.eye(6)
 
     def whitener(self, base: Float[Array, " p"], data: CalibrationData) -> Float[Array, "m 6 6"]:
         # element-wise, not LAPACK: see the NOTE of stewart_jax._linalg (a batched LAPACK call can
@@ -91,3 +104,55 @@ class AbstractPoseNoiseModel(AbstractDiscrepancyModel):
         if data.time is not None:
             out["time_s"] = np.broadcast_to(np.asarray(data.time)[:, None], (m, 6))
         return out
+
+
+@eqx.filter_jit
+def _mechanism_pose_jacobians(mechanism: AbstractMechanism, base: Float[Array, " p"], poses: Float[Array, "m 6"]):
+    return mechanism.with_params(base).ik_and_jacobian(poses)[2]
+
+
+class AbstractMechanismModel(AbstractPoseNoiseModel):
+    """The discrepancy model of a mechanism, any family and any parameter set.
+
+    Subclasses have the field ``mechanism`` (the starting mechanism: its ``params`` are the
+    starting base parameters; what is not calibrated, e.g. ``v0``, is kept) and the noise fields,
+    and define the state their effects change (``initial_state``) and the readings of a state
+    (``finish``), through the family's own leg function. The base scale is 1 µm per length
+    parameter and 1 µrad per angle (in each parameter's unit); readings are reported in µm for a
+    linear family and µrad for a rotary one; the pose Jacobian is the mechanism's
+    (:meth:`~stewart_jax.mechanism.AbstractMechanism.ik_and_jacobian`).
+    """
+
+    mechanism: eqx.AbstractVar[AbstractMechanism]
+
+    @property
+    def base_initial(self) -> Float[Array, " p"]:
+        return self.mechanism.params
+
+    @property
+    def base_scale(self) -> Float[Array, " p"]:
+        return jnp.asarray(self.mechanism.natural_scales(UM))
+
+    @property
+    def report_unit(self) -> str:  # type: ignore[override]
+        return report_unit(self.mechanism.reading_unit)
+
+    @property
+    def report_factor(self) -> float:  # type: ignore[override]
+        return 1.0 / UM if self.mechanism.reading_unit == "mm" else report_factor(self.mechanism.reading_unit)
+
+    def pose_jacobians(self, base: Float[Array, " p"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
+        """``∂q/∂P`` of the base model at each pose (the mechanism's pose Jacobian)."""
+        return _mechanism_pose_jacobians(self.mechanism, base, poses)
+
+    def reading_factor_name(self) -> str:
+        """The factor of a leg's own reading: ``stroke_um`` (linear) or ``reading_urad`` (angular)."""
+        unit = ascii_unit(self.report_unit)
+        return f"stroke_{unit}" if self.mechanism.reading_unit == "mm" else f"reading_{unit}"
+
+    def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
+        """Per leg: its own reading (µm or µrad) and approach direction; per pose: the six pose
+        components (µm and ″), temperature and time."""
+        q = np.asarray(data.strokes)
+        q = q / UM if self.mechanism.reading_unit == "mm" else q * self.report_factor
+        return {self.reading_factor_name(): q, **self.pose_factors(data)}

@@ -1,11 +1,14 @@
 """The 6-PSS calibration model as a discrepancy model (Wang et al. 2018, "Improved cuckoo
 calibration method of space telescope secondary mirror adjusting mechanism", Infrared and Laser
 Engineering 47(5), §1: the mechanism, eq. 4: the inverse kinematics, the 36 joint-centre
-parameters).
+parameters; and the generalised mechanism's 42 and 54 parameters).
 
-Observations are the encoder readings ``q'`` (6 per pose); the base parameters are the 36
-joint centres; the noise is on the measured pose (σ per translation and angle) and reaches the
-readings through the kinematic Jacobian.
+Observations are the encoder readings ``q'`` (6 per pose); the base parameters are the
+mechanism's calibration parameters (any of its parameter sets); the noise is on the measured pose
+(σ per translation and angle) and reaches the readings through the kinematic Jacobian. The
+readings are the mechanism's generalised leg,
+:func:`~stewart_jax.mechanism._pss.slider_leg`, with what the effects change (slider axes, rod
+lengths per pose, the reading's gain and offset) in between.
 """
 
 from __future__ import annotations
@@ -14,15 +17,13 @@ from typing import ClassVar, NamedTuple
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
-from .._math import rotation_matrix
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
-from ..mechanism._pss import Geometry, geometry_from_params
+from ..mechanism._pss import Geometry, PSSMechanism, rod_lengths, slider_leg
 from ._families import check_noise, register_model_family
-from ._pose_noise import AbstractPoseNoiseModel
+from ._pose_noise import AbstractMechanismModel
 
 MODEL_NAME = "6-pss"
 PSS_MODEL_NAME = MODEL_NAME
@@ -39,6 +40,8 @@ class PSSState(NamedTuple):
     - ``axes``: ``Float[Array, "6 3"]``, unit slider axes in B (``e_z`` in the base model).
     - ``dlength``: ``Float[Array, "m 6"]``, change of each rod length from ``|Ac + v0 − Bc|``.
     - ``gain``, ``offset``: ``Float[Array, "m 6"]``, reading = ``gain · true stroke + offset``.
+    - ``rod_lengths``: ``Float[Array, "6"]``, the base model's rod lengths (``|Ac + v0 − Bc|``
+      for the paper's 36 parameters).
     """
 
     poses: Float[Array, "m 6"]
@@ -49,6 +52,7 @@ class PSSState(NamedTuple):
     dlength: Float[Array, "m 6"]
     gain: Float[Array, "m 6"]
     offset: Float[Array, "m 6"]
+    rod_lengths: Float[Array, "6"] | None = None
 
 
 def pss_strokes(
@@ -61,31 +65,19 @@ def pss_strokes(
 ) -> Float[Array, "m 6"]:
     """True slider strokes of a 6-PSS mechanism with general slider axes ``n_i`` and rod
     lengths ``L_i = |Ac_i + v0 − Bc_i| + dlength``: the root of
-    ``|a_i − Bc_i − q·n_i| = L_i`` with the slider below the upper joint.
-
-    NOTE: with ``e = Ac + v0 − Bc`` (zero-pose leg), ``δ = T·Ac − Ac + d`` and ``w = e + δ``,
-    the quadratic ``q² − 2q(n·w) + |w|² − L² = 0`` has the root
-    ``q = c / (n·w + sqrt((n·w)² − c))`` with ``c = 2e·δ + |δ|² − ΔL(2|e| + ΔL)``: no
-    cancellation, exactly 0 at the zero pose, and equal to Wang et al. (2018) eq. 4 for ``n = e_z``,
-    ``ΔL = 0``.
-    """
-    rot = rotation_matrix(poses[:, 3:])
-    delta = jnp.einsum("mjk,ik->mij", rot, upper) - upper + poses[:, None, :3]
-    e = upper + v0 - lower
-    length0 = jnp.linalg.norm(e, axis=-1)
-    c = jnp.sum(delta * (2.0 * e + delta), axis=-1) - dlength * (2.0 * length0 + dlength)
-    nw = jnp.sum(axes * (e + delta), axis=-1)
-    root = jnp.sqrt(jnp.maximum(nw**2 - c, 0.0))
-    return c / (nw + root)
+    ``|a_i − Bc_i − q·n_i| = L_i`` with the slider below the upper joint — the mechanism's own
+    generalised leg (:func:`~stewart_jax.mechanism._pss.slider_leg`, cancellation-free, exactly 0
+    at the zero pose, Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``)."""
+    return slider_leg(poses, upper, upper + v0 - lower, axes, dlength).strokes
 
 
-class PSSModel(AbstractPoseNoiseModel):
-    """The 36-parameter 6-PSS model with pose-measurement noise.
+class PSSModel(AbstractMechanismModel):
+    """The 6-PSS model with pose-measurement noise, for any of the mechanism's parameter sets.
 
     **Fields:**
 
-    - ``nominal``: ``Float[Array, "36"]``, starting parameters (mm).
-    - ``v0``: ``Float[Array, "3"]`` (mm).
+    - ``mechanism``: the starting :class:`~stewart_jax.mechanism.PSSMechanism` (its ``params`` are
+      the starting base parameters: 36, 42 or 54; its ``v0`` is not calibrated).
     - ``sigma_mm``: σ of each measured translation (mm).
     - ``sigma_rad``: σ of each measured angle (rad).
     - ``sigma_stroke_mm``: σ of each encoder reading (mm); 0 in the paper's setting.
@@ -95,38 +87,28 @@ class PSSModel(AbstractPoseNoiseModel):
     parameters and the measured poses.
     """
 
-    nominal: Float[Array, "36"]
-    v0: Float[Array, "3"]
+    mechanism: PSSMechanism
     sigma_mm: float | Array
     sigma_rad: float | Array
     sigma_stroke_mm: float | Array = 0.0
 
     name: ClassVar[str] = MODEL_NAME
     output_names: ClassVar[tuple[str, ...]] = tuple(f"leg{i}" for i in range(1, 7))
-    report_unit: ClassVar[str] = "µm"
-    report_factor: ClassVar[float] = 1.0 / UM
 
-    @property
-    def base_initial(self) -> Float[Array, "36"]:
-        return self.nominal
-
-    @property
-    def base_scale(self) -> Float[Array, "36"]:
-        return jnp.full(36, UM)
-
-    def initial_state(self, base: Float[Array, "36"], data: CalibrationData, control: bool) -> PSSState:
-        m = data.poses.shape[0]
-        zeros = jnp.zeros((m, 6))
-        axes = jnp.broadcast_to(jnp.array([0.0, 0.0, 1.0]), (6, 3))
-        return PSSState(
-            data.poses, base[:18].reshape(6, 3), base[18:].reshape(6, 3), self.v0, axes, zeros, zeros + 1.0, zeros
-        )
+    def initial_state(self, base: Float[Array, " n"], data: CalibrationData, control: bool) -> PSSState:
+        g = self.mechanism.with_params(base)
+        zeros = jnp.zeros((data.poses.shape[0], 6))
+        lengths = rod_lengths(g)
+        dlength = zeros  # the 36-parameter model's rods follow the joints (ΔL = 0 exactly)
+        if g.lengths is not None:  # given rod lengths differ from the zero-pose legs
+            dlength = zeros + (g.lengths - jnp.linalg.norm(g.upper + g.v0 - g.lower, axis=-1))
+        return PSSState(data.poses, g.upper, g.lower, g.v0, g.slider_axes, dlength, zeros + 1.0, zeros, lengths)
 
     def finish(self, state: PSSState, data: CalibrationData) -> Float[Array, "m 6"]:
         s = pss_strokes(state.upper, state.lower, state.v0, state.axes, state.dlength, state.poses)
         return state.gain * s + state.offset
 
-    def pose_jacobians(self, base: Float[Array, "36"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
+    def pose_jacobians(self, base: Float[Array, " n"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
         """``∂q/∂P`` of the base model at each pose.
 
         NOTE: the forward-mode derivative of :func:`pss_strokes`, not the analytic
@@ -141,34 +123,23 @@ class PSSModel(AbstractPoseNoiseModel):
 
         return jax.vmap(jax.jacfwd(one))(poses)
 
-    def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
-        """Per leg: its own reading and approach direction; per pose: the six pose components
-        (µm and ″), temperature and time."""
-        return {"stroke_um": np.asarray(data.strokes) / UM, **self.pose_factors(data)}
-
 
 def pss_model(
     geometry: Geometry, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
 ) -> PSSModel:
-    """:class:`PSSModel` starting from ``geometry`` (a 6-PSS with the paper's 36 parameters) with
-    pose noise σ (µm, ″) and optional reading noise (µm)."""
-    family = getattr(geometry, "family", type(geometry).__name__)
-    if family != Geometry.family:
+    """:class:`PSSModel` starting from ``geometry`` (a 6-PSS, any parameter set) with pose noise σ
+    (µm, ″) and optional reading noise (µm)."""
+    if not isinstance(geometry, PSSMechanism):
+        family = getattr(geometry, "family", type(geometry).__name__)
         raise ValueError(f"pss_model needs a 6-PSS mechanism, got a {family}; model_for(mechanism) picks the "
                          "model of its family")
-    if geometry.n_params != 36 or not getattr(geometry, "is_paper_model", True):
-        raise ValueError("the 6-PSS discrepancy model is Wang et al. (2018)'s mechanism: vertical sliders, rod "
-                         "lengths from the zero pose, the 36 joint-centre parameters; this 6-PSS has "
-                         f"{geometry.n_params} parameters{'' if geometry.is_paper_model else ', axes or rod lengths'} "
-                         "(its slider tilts and rod lengths are the candidate effects actuator_tilt and zero_offset)")
     check_noise(sigma_um, sigma_arcsec, sigma_stroke_um)
     return PSSModel(
-        geometry.params,
-        geometry.v0,
+        geometry,
         jnp.asarray(float(sigma_um) * UM),
         jnp.asarray(float(sigma_arcsec) * ARCSEC),
         jnp.asarray(float(sigma_stroke_um) * UM),
     )
 
 
-register_model_family(Geometry.family, MODEL_NAME, pss_model, lambda model, base: geometry_from_params(base, model.v0))
+register_model_family(Geometry.family, MODEL_NAME, pss_model, lambda model, base: model.mechanism.with_params(base))

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from typing import ClassVar, NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -30,13 +29,11 @@ from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._ups import UPSMechanism
 from ._families import check_noise, register_model_family
-from ._pose_noise import AbstractPoseNoiseModel
+from ._pose_noise import AbstractMechanismModel
 
 MODEL_NAME = "6-ups"
 UPS_MODEL_NAME = MODEL_NAME
 """Registry name of the 6-UPS model (its effects are registered under it)."""
-
-N_PARAMS_UPS = 42
 
 
 class UPSState(NamedTuple):
@@ -94,17 +91,12 @@ def gravity_axial_loads(
     return solve(jnp.swapaxes(g, -1, -2), jnp.broadcast_to(wrench, poses.shape))  # not LAPACK: see stewart_jax._linalg
 
 
-@eqx.filter_jit
-def _pose_jacobians(mechanism: UPSMechanism, base: Float[Array, "42"], poses: Float[Array, "m 6"]):
-    return mechanism.with_params(base).ik_and_jacobian(poses)[2]
-
-
 # NOTE: the report's derived errors and factors are evaluated outside the fits; compiled, they
 # cost one small compile each instead of one per primitive of an eager evaluation.
 _gravity_axial_loads = jax.jit(gravity_axial_loads)
 
 
-class UPSModel(AbstractPoseNoiseModel):
+class UPSModel(AbstractMechanismModel):
     """The 42-parameter 6-UPS model with pose-measurement noise.
 
     **Fields:**
@@ -131,16 +123,6 @@ class UPSModel(AbstractPoseNoiseModel):
 
     name: ClassVar[str] = MODEL_NAME
     output_names: ClassVar[tuple[str, ...]] = tuple(f"strut{i}" for i in range(1, 7))
-    report_unit: ClassVar[str] = "µm"
-    report_factor: ClassVar[float] = 1.0 / UM
-
-    @property
-    def base_initial(self) -> Float[Array, "42"]:
-        return self.mechanism.params
-
-    @property
-    def base_scale(self) -> Float[Array, "42"]:
-        return jnp.full(N_PARAMS_UPS, UM)
 
     def initial_state(self, base: Float[Array, "42"], data: CalibrationData, control: bool) -> UPSState:
         m = self.mechanism.with_params(base)
@@ -149,10 +131,6 @@ class UPSModel(AbstractPoseNoiseModel):
 
     def finish(self, state: UPSState, data: CalibrationData) -> Float[Array, "m 6"]:
         return ups_readings(state)
-
-    def pose_jacobians(self, base: Float[Array, "42"], poses: Float[Array, "m 6"]) -> Float[Array, "m 6 6"]:
-        """``∂q/∂P`` of the base model at each pose (the mechanism's analytic Jacobian)."""
-        return _pose_jacobians(self.mechanism, base, poses)
 
     def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
         """Per strut: its own reading, the axial load a payload at A's origin puts on it (per

@@ -2,17 +2,23 @@
 
 A mechanism is six actuators between a fixed frame B and a moving frame A. A pose
 ``P = [dx, dy, dz, φ, θ, ψ]`` (mm, rad; ``T = Rz(ψ)·Ry(θ)·Rx(φ)``) places A in B; each actuator
-then has a *reading* ``q_i`` (mm: a slider stroke, a strut's change of length). What differs
+then has a *reading* ``q_i``: a length in mm (a slider's stroke, a strut's change of length) or an
+angle in rad (a crank's turn), the family's :attr:`~AbstractMechanism.reading_unit`. What differs
 between families is only the leg: how a reading follows from the pose and which geometric
-parameters the calibration identifies. Everything above this layer — forward kinematics,
-residuals, simulation, identifiability, the study, the discrepancy workflow, the CLI — is written
-against :class:`AbstractMechanism`.
+parameters the calibration identifies, each in its own unit
+(:attr:`~AbstractMechanism.param_units`: mm for lengths, rad or mrad for angles). Everything above
+this layer — forward kinematics, residuals, simulation, identifiability, the study, the
+discrepancy workflow, the CLI — is written against :class:`AbstractMechanism` and takes sizes,
+noise and labels from those units.
 
-A family implements ``params``, ``with_params``, ``solve_inverse_kinematics``, ``to_dict`` and
-``from_dict``; the pose Jacobian and the parameter Jacobian have automatic-differentiation
-defaults that a family may override with closed forms, and the population objective
+A family implements ``params``, ``param_units``, ``with_params``, ``solve_inverse_kinematics``,
+``moving_joints``, ``to_dict`` and ``from_dict`` and names its ``family`` and ``reading_unit``;
+the pose Jacobian and the parameter Jacobian have automatic-differentiation defaults that a family
+may override with closed forms, and the population objective
 (:meth:`AbstractMechanism.population_squared_residuals`) a ``vmap`` default that a family may
-override with a layout that vectorises over the population. Register it with
+override with a layout that vectorises over the population. Truly optional (``None`` where
+unknown): :attr:`~AbstractMechanism.leg_parameters`, :attr:`~AbstractMechanism.travel_half_widths`
+and :meth:`~AbstractMechanism.tracker_layout`. Register a family with
 :func:`~stewart_jax.mechanism.register_family` so geometry files naming it load.
 """
 
@@ -29,15 +35,18 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from .._checks import valid_poses
+from .._units import per_parameter
 
 
 class IKSolution(NamedTuple):
     """Inverse kinematics of poses of batch shape ``...``.
 
-    - ``strokes``: ``Float[Array, "... 6"]``, actuator readings q (mm). Where a leg is
-      unreachable the value is finite but meaningless.
+    - ``strokes``: ``Float[Array, "... 6"]``, actuator readings q (the family's
+      :attr:`~AbstractMechanism.reading_unit`, mm or rad). Where a leg is unreachable the value is
+      finite but meaningless.
     - ``margin``: ``Float[Array, "... 6"]``, per leg a number that is ≥ 0 exactly when the leg can
-      be assembled (mm², family-specific; for the 6-PSS the square-root argument of eq. 4).
+      be assembled (family-specific: for the 6-PSS the square-root argument of eq. 4 in mm², for
+      the 6-UPS and 6-RUS a length in mm).
     - ``reachable``: ``Bool[Array, "..."]``, every leg's margin is ≥ 0.
     """
 
@@ -84,22 +93,39 @@ def dense_parameter_jacobian(
 
 
 class AbstractMechanism(eqx.Module):
-    """A six-actuator parallel mechanism: a pytree of its geometry (mm).
+    """A six-actuator parallel mechanism: a pytree of its geometry (lengths in mm, angles in rad).
 
     Every family has the field ``v0`` (A's origin in B at the zero pose, mm). Class
-    attributes: ``family`` (the geometry file's ``"mechanism"`` value, e.g. ``"6-PSS"``)
-    and ``param_names`` (one label per calibration parameter, in :attr:`params` order).
-    Batch a mechanism with ``jax.vmap`` over a leading axis of every leaf.
+    attributes: ``family`` (the geometry file's ``"mechanism"`` value, e.g. ``"6-PSS"``) and
+    ``reading_unit`` (``"mm"`` for a length reading, ``"rad"`` for an angle). Batch a mechanism
+    with ``jax.vmap`` over a leading axis of every leaf.
     """
 
     family: ClassVar[str]
+    reading_unit: ClassVar[str]
+    """The unit of the actuator readings: ``"mm"`` (a stroke, a change of length) or ``"rad"``
+    (a crank angle). Reports give them in µm or µrad."""
     v0: eqx.AbstractVar[Float[Array, "3"]]
     """Position of A's origin (the point whose pose is commanded) in B at the zero pose (mm)."""
 
     @property
     @abc.abstractmethod
     def params(self) -> Float[Array, " n"]:
-        """The calibration parameters as one vector (mm)."""
+        """The calibration parameters as one vector, each in its :attr:`param_units` unit."""
+
+    @property
+    @abc.abstractmethod
+    def param_units(self) -> tuple[str, ...]:
+        """The unit of each calibration parameter, in :attr:`params` order: ``"mm"`` for a
+        length, ``"rad"`` (or ``"mrad"``, where a family stores a small angle so) for an angle.
+        Perturbations, feasible boxes, the discrepancy models' scales, reports and plots take
+        their sizes and labels from it (µm for lengths, µrad for angles)."""
+
+    def natural_scales(self, length_mm: float, angle_mrad: float | None = None) -> np.ndarray:
+        """Per calibration parameter, a size in its own unit: ``length_mm`` (mm) for a length,
+        ``angle_mrad`` (mrad; default the same number as ``length_mm``) for an angle. What a
+        perturbation's σ or a feasible box's half-width given "in mm" means for each parameter."""
+        return per_parameter(self.param_units, length_mm, length_mm if angle_mrad is None else angle_mrad)
 
     @abc.abstractmethod
     def with_params(self, params: Float[Array, " n"]) -> AbstractMechanism:
@@ -145,9 +171,10 @@ class AbstractMechanism(eqx.Module):
         measurement uses, or ``None`` for three balls on the circle of the moving joints."""
         return None
 
+    @abc.abstractmethod
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
-        """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm)."""
-        raise NotImplementedError(f"{type(self).__name__} does not expose its moving joints")
+        """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm): where the simulated
+        laser tracker's balls sit (:meth:`tracker_layout` ``None``) and what plots draw."""
 
     def ik_and_jacobian(
         self, poses: Float[Array, "... 6"]
@@ -166,7 +193,7 @@ class AbstractMechanism(eqx.Module):
         self, params: Float[Array, "n p"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
     ) -> tuple[Float[Array, " n"], Bool[Array, " n"]]:
         """For every parameter vector ``params[k]`` of a population, ``Σ_j Σ_i (readings_ji −
-        q_i(poses_j; params[k]))²`` (mm²) with ``q`` the inverse kinematics of
+        q_i(poses_j; params[k]))²`` (the reading unit squared) with ``q`` the inverse kinematics of
         ``self.with_params(params[k])``, and whether every pose is reachable there.
 
         The objective a population optimiser evaluates (the calibration's ``S(u)`` for a whole

@@ -31,7 +31,8 @@ from ._abstract import AbstractMechanism, IKSolution as IKSolution
 
 
 def solve_inverse_kinematics(mechanism: AbstractMechanism, poses: Float[Array, "... 6"]) -> IKSolution:
-    """Readings (mm) and reachability of ``poses`` for any mechanism; pure and jittable
+    """Readings (the family's ``reading_unit``: mm, or rad for a rotary family) and reachability
+    of ``poses`` for any mechanism; pure and jittable
     (:meth:`AbstractMechanism.solve_inverse_kinematics`)."""
     return mechanism.solve_inverse_kinematics(poses)
 
@@ -47,7 +48,7 @@ def upper_joints_in_base(mechanism: AbstractMechanism, poses: Float[Array, "... 
 
 
 def inverse_kinematics(mechanism: AbstractMechanism, poses: ArrayLike) -> Float[Array, "... 6"]:
-    """Actuator readings (mm) for poses ``[dx, dy, dz, φ, θ, ψ]`` (mm, rad).
+    """Actuator readings (mm, or rad for a rotary family) for poses ``[dx, dy, dz, φ, θ, ψ]`` (mm, rad).
 
     Raises ``ValueError`` for a malformed, non-finite or degree-valued pose and for an
     unreachable pose (naming it). Under ``jit`` the same checks run at run time through
@@ -75,7 +76,7 @@ def inverse_kinematics(mechanism: AbstractMechanism, poses: ArrayLike) -> Float[
 
 
 def kinematic_jacobian(mechanism: AbstractMechanism, pose: Float[Array, "... 6"]) -> Float[Array, "... 6 6"]:
-    """``∂q/∂P`` (mm per mm / mm per rad) from :func:`ik_and_jacobian`; any batch shape."""
+    """``∂q/∂P`` (reading unit per mm / per rad) from :func:`ik_and_jacobian`; any batch shape."""
     return ik_and_jacobian(mechanism, pose)[2]
 
 
@@ -86,7 +87,8 @@ class FKSolution(NamedTuple):
       solve failed.
     - ``converged``: ``Bool[Array, "..."]``, ``max |IK(P) − q| ≤ tol`` was reached and the
       pose is reachable.
-    - ``residual``: ``Float[Array, "..."]``, ``max_i |IK(P)_i − q_i|`` at the returned pose (mm).
+    - ``residual``: ``Float[Array, "..."]``, ``max_i |IK(P)_i − q_i|`` at the returned pose (the
+      reading unit: mm, or rad).
     - ``steps``: ``Int[Array, "..."]``, Newton steps taken.
     """
 
@@ -183,14 +185,15 @@ def forward_kinematics(
     max_steps: int = 30,
     throw: bool = False,
 ) -> FKSolution:
-    """Forward kinematics (eqs. 5–6): the pose that produces ``strokes`` (mm).
+    """Forward kinematics (eqs. 5–6): the pose that produces the readings ``strokes`` (mm, or rad
+    for a rotary family).
 
     ``strokes`` may have any leading batch shape; each pose is solved independently by
     Newton's method (batched with vmap) from ``initial_pose`` (default: the zero pose).
     Per-pose convergence is reported in :class:`FKSolution`; with ``throw=True`` a
     non-converged pose raises instead (``equinox.error_if`` under jit).
 
-    ``tol`` (mm) is on ``max |IK(P) − q|``; float64 rounding of eq. 4 is ~1e-15 mm.
+    ``tol`` (the reading unit) is on ``max |IK(P) − q|``; float64 rounding of eq. 4 is ~1e-15 mm.
     """
     q = check_array(strokes, "strokes", last_dim=6)
     p0 = jnp.zeros(6) if initial_pose is None else check_poses(initial_pose)

@@ -13,6 +13,8 @@ pose shifted by the pivot: ``X Y Z = d + v0``. The configuration written here th
   ``MIN_LIMIT``/``MAX_LIMIT``;
 - bounds each axis by the mechanism's workspace along that axis from the pivot pose
   (:func:`~stewart_jax.mechanism.max_travel`), in the controller's shifted coordinates;
+- names LinuxCNC's I/O controller (``[EMCIO]EMCIO = io``: without it LinuxCNC 2.9 starts but never
+  leaves E-stop) and an empty tool table;
 - sets millimetres and degrees, and holds ``tool-offset``, ``spindle-offset`` and ``screw-lead`` at 0:
   ``genhexkins`` adds the first two to the ``z`` of every platform and base joint, which moves the
   rotation centre off the calibrated pivot, and the third corrects for screw rotation that a
@@ -42,6 +44,7 @@ class LinuxCNCConfig(NamedTuple):
     - ``ini``: the INI file's text (``[KINS]``, ``[TRAJ]``, ``[JOINT_0..5]``, ``[AXIS_X..C]``, …).
     - ``hal``: the HAL file's text (``loadrt``, the 36 ``setp genhexkins.*`` joint coordinates,
       the offsets held at 0, and a simulated joint loop to replace with the machine's drives).
+    - ``tool_table``: the tool table's text (no tools: one comment line).
     - ``home``: ``Float[ndarray, "6"]``, ``[TRAJ]HOME`` (mm, degrees): ``v0`` and zero angles.
     - ``joint_home_mm``: ``Float[ndarray, "6"]``, the strut lengths at ``home``.
     - ``joint_limits_mm``: ``Float[ndarray, "6 2"]``, ``lengths0`` + the stroke limits.
@@ -50,6 +53,7 @@ class LinuxCNCConfig(NamedTuple):
 
     ini: str
     hal: str
+    tool_table: str
     home: np.ndarray
     joint_home_mm: np.ndarray
     joint_limits_mm: np.ndarray
@@ -100,6 +104,8 @@ def to_linuxcnc(
     lengths0 = np.asarray(mechanism.lengths0, dtype=np.float64)
     home = np.concatenate([v0, np.zeros(3)])
     joint_home = np.linalg.norm(platform + v0 - base, axis=1)
+    # the strut lengths LinuxCNC would command for the library's zero pose sent unshifted (X Y Z = 0)
+    unshifted_change = float(np.max(np.abs(np.linalg.norm(platform - base, axis=1) - joint_home)))
     limits = np.asarray(mechanism.stroke_limits, dtype=np.float64)
     joint_limits = lengths0[:, None] + limits
     if np.any(joint_home <= joint_limits[:, 0]) or np.any(joint_home >= joint_limits[:, 1]):
@@ -116,8 +122,9 @@ def to_linuxcnc(
     axis_limits = np.stack([home - minus, home + plus], axis=1)
     axis_limits[3:] = np.degrees(np.stack([-minus[3:], plus[3:]], axis=1))
     return LinuxCNCConfig(
-        ini=_ini(name, home, joint_home, joint_limits, axis_limits, capped),
+        ini=_ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_change),
         hal=_hal(hal_setp),
+        tool_table=f"; {name}: no tools (a tool length offset would move the rotation centre off the pivot)\n",
         home=home,
         joint_home_mm=joint_home,
         joint_limits_mm=joint_limits,
@@ -129,12 +136,16 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _ini(name, home, joint_home, joint_limits, axis_limits, capped) -> str:
+def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_change) -> str:
     lines = [
         "# LinuxCNC configuration of a 6-UPS strut hexapod for genhexkins, written by stewart_jax.",
         "# Units: mm and degrees. World coordinates are the controller's, shifted from the library's pose:",
         "#   X Y Z = d + v0 (the platform frame's origin in the base frame), A B C = phi theta psi in degrees.",
         "# Command X Y Z = v0 (the [TRAJ]HOME below) to put the platform at the library's zero pose.",
+        f"# Commanding the library's d unshifted (X Y Z = 0 for the zero pose) moves the platform |v0| = "
+        f"{np.linalg.norm(home[:3]):.4f} mm",
+        f"# from it and changes a strut's length by up to {unshifted_change:.4f} mm (LinuxCNC refuses it: "
+        "outside the joint limits).",
         "",
         "[EMC]",
         "VERSION = 1.1",
@@ -163,6 +174,9 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped) -> str:
         f"HALFILE = {name}.hal",
         "",
         "[EMCIO]",
+        "# the I/O controller that takes the machine out of E-stop (without it LinuxCNC stays in E-stop)",
+        "EMCIO = io",
+        "CYCLE_TIME = 0.100",
         f"TOOL_TABLE = {name}.tbl",
         "",
         "[KINS]",

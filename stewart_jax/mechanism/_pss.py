@@ -69,6 +69,7 @@ class PSSMechanism(AbstractMechanism):
     """
 
     family: ClassVar[str] = "6-PSS"
+    reading_unit: ClassVar[str] = "mm"
 
     upper: Float[Array, "6 3"]
     lower: Float[Array, "6 3"]
@@ -134,6 +135,11 @@ class PSSMechanism(AbstractMechanism):
         """Rod lengths ``L_i`` (mm): the given ones, or ``|Ac_i + v0 - Bc_i|`` (zero stroke at the
         zero pose)."""
         return rod_lengths(self)
+
+    @property
+    def param_units(self) -> tuple[str, ...]:
+        """mm for the joint centres and rod lengths, mrad for the 54-parameter set's tilts."""
+        return ("mm",) * (36 if self.param_set == "36" else 42) + ("mrad",) * (12 if self.param_set == "54" else 0)
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -379,6 +385,14 @@ class _IKParts(NamedTuple):
 
 
 def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
+    """Eq. 4 of the paper's mechanism on arrays, with the intermediates its closed-form Jacobians
+    reuse.
+
+    NOTE: the same leg as :func:`leg_stroke` (the component form the population objective and the
+    batched fast path use), coded a second time: the rotation applied by ``einsum`` here and by
+    explicit multiply-adds there round differently (up to 2e-14 mm apart on 2 000 poses of the
+    actual geometry), and the calibrations, studies and published tables hinge on these exact
+    bits. Expressing one through the other would move every seeded result."""
     rot = rotation_matrix(poses[..., 3:])
     upper = geometry.upper
     w = jnp.einsum("...jk,ik->...ij", rot, upper)
@@ -398,31 +412,48 @@ class _GeneralParts(NamedTuple):
     rot: Array  # T, (..., 3, 3)
     w: Array  # T·Ac_i, (..., 6, 3)
     ell: Array  # rod vector at zero stroke, (..., 6, 3)
-    axes: Array  # unit slider axes n_i, (6, 3)
+    axes: Array  # unit slider axes n_i, broadcast to (..., 6, 3)
     margin: Array  # (n·ℓ)² − c, (..., 6)
     root: Array  # sqrt(max(margin, 0)), (..., 6)
     strokes: Array  # (..., 6)
 
 
 def _general_ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _GeneralParts:
+    e = geometry.upper + geometry.v0 - geometry.lower
+    dl = None if geometry.lengths is None else geometry.lengths - jnp.linalg.norm(e, axis=-1)
+    return slider_leg(poses, geometry.upper, e, geometry.slider_axes, dl)
+
+
+def slider_leg(
+    poses: Float[Array, "... 6"],
+    upper: Float[Array, "6 3"],
+    e: Float[Array, "6 3"],
+    axes: Float[Array, "6 3"],
+    dlength: Float[Array, "... 6"] | None = None,
+) -> _GeneralParts:
+    """The generalised 6-PSS leg, the one function behind :meth:`PSSMechanism.solve_inverse_kinematics`
+    (axes or rod lengths given) and the 6-PSS discrepancy model: slider ``i`` moves along the unit
+    axis ``axes[i]`` and its rod is ``dlength`` longer than the zero-pose leg ``e_i = Ac_i + v0 − Bc_i``
+    (``None``: exactly ``|e_i|``; else any shape broadcasting against the readings ``(..., 6)``,
+    e.g. a per-pose change). Poses of any batch shape.
+
+    NOTE: with ``δ = T·Ac − Ac + d`` and ``w = e + δ``, ``|w − q·n| = |e| + ΔL`` has the root
+    ``q = c / (n·w + sqrt((n·w)² − c))``, ``c = δ·(2e + δ) − ΔL·(2|e| + ΔL)``: no cancellation,
+    exactly 0 at the zero pose, and Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``.
+    """
     rot = rotation_matrix(poses[..., 3:])
-    upper = geometry.upper
     w = jnp.einsum("...jk,ik->...ij", rot, upper)
     delta = w - upper + poses[..., None, :3]
-    e = upper + geometry.v0 - geometry.lower
     c = jnp.sum(delta * (2.0 * e + delta), axis=-1)
-    if geometry.lengths is not None:
-        e_len = jnp.linalg.norm(e, axis=-1)
-        dl = geometry.lengths - e_len
-        c = c - dl * (2.0 * e_len + dl)
-    axes = geometry.slider_axes
+    if dlength is not None:
+        c = c - dlength * (2.0 * jnp.linalg.norm(e, axis=-1) + dlength)
     ell = e + delta
     nw = jnp.sum(axes * ell, axis=-1)
     margin = nw**2 - c
     root = jnp.sqrt(jnp.maximum(margin, 0.0))
     denom = nw + root
     strokes = jnp.where(denom > 0, c / jnp.where(denom > 0, denom, 1.0), nw - root)
-    return _GeneralParts(rot, w, ell, axes, margin, root, strokes)
+    return _GeneralParts(rot, w, ell, jnp.broadcast_to(axes, ell.shape), margin, root, strokes)
 
 
 def _general_ik_and_jacobian(geometry: PSSMechanism, poses: Float[Array, "... 6"]):

@@ -15,6 +15,7 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from .._files import write_text_atomic
+from .._units import READING_UNITS
 from ._abstract import AbstractMechanism
 
 DEFAULT_FAMILY = "6-PSS"
@@ -26,10 +27,15 @@ M = TypeVar("M", bound=type[AbstractMechanism])
 
 
 def register_family(cls: M) -> M:
-    """Class decorator: geometry files with ``"mechanism": cls.family`` load as ``cls``."""
+    """Class decorator: geometry files with ``"mechanism": cls.family`` load as ``cls``; the class
+    names its family and its readings' unit (``reading_unit``, ``"mm"`` or ``"rad"``)."""
     name = getattr(cls, "family", None)
     if not isinstance(name, str) or not name:
         raise TypeError(f"{cls.__name__} needs a class attribute `family` (the geometry file's name)")
+    unit = getattr(cls, "reading_unit", None)
+    if unit not in READING_UNITS:
+        raise TypeError(f"{cls.__name__} needs a class attribute `reading_unit`, one of {list(READING_UNITS)} (a "
+                        f"linear or an angular actuator reading), got {unit!r}")
     if name in _FAMILIES and _FAMILIES[name] is not cls:
         raise ValueError(f"mechanism family {name!r} is already registered by {_FAMILIES[name].__name__}")
     _FAMILIES[name] = cls

@@ -87,6 +87,7 @@ class UPSMechanism(AbstractMechanism):
     """
 
     family: ClassVar[str] = "6-UPS"
+    reading_unit: ClassVar[str] = "mm"
 
     base: Float[Array, "6 3"]
     platform: Float[Array, "6 3"]
@@ -126,6 +127,11 @@ class UPSMechanism(AbstractMechanism):
         return jnp.concatenate(
             [self.platform.reshape(*batch, 18), self.base.reshape(*batch, 18), self.lengths0], axis=-1
         )
+
+    @property
+    def param_units(self) -> tuple[str, ...]:
+        """Every parameter is a length (mm)."""
+        return ("mm",) * N_PARAMS_UPS
 
     @property
     def param_names(self) -> tuple[str, ...]:
@@ -223,7 +229,13 @@ class UPSMechanism(AbstractMechanism):
         every row ``u`` of ``params``, in structure-of-arrays form: every quantity an ``(m, n)``
         array, the population innermost (see
         :meth:`~stewart_jax.mechanism.PSSMechanism.population_squared_residuals`); the same
-        cancellation-free strut length as :meth:`solve_inverse_kinematics`."""
+        cancellation-free strut length as :meth:`solve_inverse_kinematics`.
+
+        NOTE: the strut is coded here on components and in ``_ik_parts`` on arrays: the two round
+        the rotation differently (``einsum`` against explicit multiply-adds; the costs agree to
+        ~1e-14 relative), and the seeded population optimisers' results hinge on these exact
+        bits, so neither is expressed through the other (the 6-RUS, written after, has one
+        component-form leg for both)."""
         u = jnp.asarray(params, jnp.float64).T  # (42, n)
         angles = poses[:, 3:]
         t = rotation_matrix(angles)

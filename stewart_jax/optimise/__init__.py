@@ -14,51 +14,41 @@ baselines ``_cma_es`` (Hansen 2016), ``_differential_evolution`` (Storn & Price 
 Cholesky per separable block, a refilled working set), ``_hybrid`` (VSA-SMCS then LM);
 ``_driver`` runs every iterative one in one ``lax.scan``.
 
-A new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`) with its
-hyper-parameters as fields checked in ``__check_init__``; implement ``step`` with
-:func:`evaluate`, :func:`greedy`, :func:`uniform_in_box`, :func:`draw`, :func:`population_state`
-(and :func:`mantegna_step`, :func:`simplex_on_worst`); :func:`minimise` runs it. Statuses are
-:class:`RESULTS` items: ``result.status == RESULTS.successful``.
+A new solver (a module of this package): subclass :class:`AbstractPopulationSolver` (or
+:class:`AbstractSolver`) with its hyper-parameters as fields checked in ``__check_init__``;
+implement ``step`` with the building blocks of ``_driver`` (``evaluate``, ``greedy``,
+``uniform_in_box``, ``population_state``), ``_random.draw``, ``_levy.mantegna_step`` and
+``_simplex.simplex_on_worst``; :func:`minimise` runs it. Every solve returns an
+:class:`OptimiseResult`; statuses are :class:`RESULTS` items (``result.status ==
+RESULTS.successful``), :func:`status_name` their stable names.
 """
 
+from typing import Any as _Any
+
+from .. import _moved
 from ._batched_lm import (
     BatchedLevenbergMarquardt as BatchedLevenbergMarquardt,
-    BatchedLMState as BatchedLMState,
     Blocks as Blocks,
     least_squares_batch as least_squares_batch,
 )
-from ._cma_es import CMAES as CMAES, CMAESState as CMAESState
+from ._cma_es import CMAES as CMAES
 from ._cuckoo import CuckooSearch as CuckooSearch
 from ._differential_evolution import DifferentialEvolution as DifferentialEvolution
 from ._driver import (
     AbstractPopulationSolver as AbstractPopulationSolver,
     AbstractSolver as AbstractSolver,
-    PopulationState as PopulationState,
-    draw as draw,
-    evaluate as evaluate,
-    greedy as greedy,
-    materialize as materialize,
     minimise as minimise,
-    population_state as population_state,
-    uniform_in_box as uniform_in_box,
 )
 from ._hybrid import VSASMCSThenLM as VSASMCSThenLM
 from ._jaxopt_lm import JaxoptLevenbergMarquardt as JaxoptLevenbergMarquardt
 from ._levenberg_marquardt import LevenbergMarquardt as LevenbergMarquardt, least_squares as least_squares
-from ._levy import hill_tail_index as hill_tail_index, mantegna_sigma as mantegna_sigma, mantegna_step as mantegna_step
 from ._objective import AbstractOptimiser as AbstractOptimiser, Objective as Objective
-from ._pso import ParticleSwarm as ParticleSwarm, PSOState as PSOState
-from ._result import (
-    RESULTS as RESULTS,
-    STATUS_NAMES as STATUS_NAMES,
-    OptimiseResult as OptimiseResult,
-    status_code as status_code,
-    status_name as status_name,
-)
-from ._simplex import (
-    NelderMead as NelderMead,
-    SimplexCoefficients as SimplexCoefficients,
-    simplex_on_worst as simplex_on_worst,
-)
+from ._pso import ParticleSwarm as ParticleSwarm
+from ._result import RESULTS as RESULTS, OptimiseResult as OptimiseResult, status_name as status_name
+from ._simplex import NelderMead as NelderMead, SimplexCoefficients as SimplexCoefficients
 from ._smcs import SMCS as SMCS
 from ._vsa_smcs import VSASMCS as VSASMCS
+
+
+def __getattr__(name: str) -> _Any:
+    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

@@ -23,6 +23,9 @@ markers or dashed lines labelled "paper".
   :func:`plot_discrepancy_ranking`, :func:`plot_discrepancy_gap`.
 """
 
+from typing import Any as _Any
+
+from .. import _moved
 from ._cable_robot import (
     plot_fast_focal_map as plot_fast_focal_map,
     plot_fast_frequencies as plot_fast_frequencies,
@@ -38,7 +41,7 @@ from ._calibration import (
     plot_stroke_residuals as plot_stroke_residuals,
     plot_table_comparison as plot_table_comparison,
 )
-from ._common import COMPONENT_LABELS as COMPONENT_LABELS, show as show
+from ._common import show as show
 from ._discrepancy import (
     plot_discrepancy_gap as plot_discrepancy_gap,
     plot_discrepancy_ranking as plot_discrepancy_ranking,
@@ -46,3 +49,7 @@ from ._discrepancy import (
     plot_residuals_vs_factor as plot_residuals_vs_factor,
 )
 from ._mechanism import plot_workspace as plot_workspace
+
+
+def __getattr__(name: str) -> _Any:
+    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

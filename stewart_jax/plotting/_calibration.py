@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from .._units import report_factor, report_unit
 from ._common import COLORS, COMPONENT_LABELS, as_mapping, finish, finish_figure
 
 PAPER_TABLE4: dict[str, list[float]] = {
@@ -147,12 +148,14 @@ def plot_convergence(
     *,
     reference: Mapping[str, float] | None = None,
     title: str | None = None,
+    cost_unit: str = "mm²",
 ) -> Figure:
     """Best objective S against objective evaluations, median and 10–90 % band over seeds.
 
     ``histories``: label → ``{"evaluations_median", "cost_median", "cost_p10", "cost_p90"}``
     (``run_study(...)["rows"][label]["history"]``). ``reference``: label → a final S to draw as
-    a dashed horizontal line (e.g. LM's median final S). Log–log axes.
+    a dashed horizontal line (e.g. LM's median final S). ``cost_unit``: S's unit (the readings'
+    squared: ``mm²``, or ``rad²`` for a rotary family). Log–log axes.
     """
     fig, ax = plt.subplots(figsize=(7.5, 4.6))
     for i, (label, h) in enumerate(histories.items()):
@@ -168,7 +171,7 @@ def plot_convergence(
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("objective evaluations")
-    ax.set_ylabel("best S (mm²)")
+    ax.set_ylabel(f"best S ({cost_unit})")
     return finish(fig, ax, title)
 
 
@@ -200,36 +203,48 @@ def plot_parameter_std(
     *,
     actual_error_mm: Any = None,
     names: Sequence[str] | None = None,
+    units: Sequence[str] | None = None,
     title: str | None = None,
 ) -> Figure:
-    """Predicted standard deviation of each calibrated parameter (µm, log axis), for one or
-    several pose sets (label → n values, mm), optionally with the actual |estimate − truth| of
-    one calibration (label → n values, mm) as markers. ``names``: one label per parameter (e.g. a
-    mechanism's ``param_names``; default for 36: the 6-PSS joint centres ``A1x … B6z``)."""
+    """Predicted standard deviation of each calibrated parameter (log axis), for one or several
+    pose sets (label → n values, each in its parameter's unit), optionally with the actual
+    |estimate − truth| of one calibration (label → n values) as markers. ``names``: one label per
+    parameter (e.g. a mechanism's ``param_names``; default for 36: the 6-PSS joint centres
+    ``A1x … B6z``); ``units``: each parameter's unit (a mechanism's ``param_units``; default mm):
+    lengths are drawn in µm, angles in µrad."""
     series = as_mapping(param_std_mm, "predicted std")
     n = len(next(iter(series.values())))
     if names is None:
         names = ([f"{'A' if i < 18 else 'B'}{(i % 18) // 3 + 1}{'xyz'[i % 3]}" for i in range(36)] if n == 36
                  else [str(i) for i in range(n)])
-    if len(names) != n:
-        raise ValueError(f"{len(names)} names for {n} parameters")
+    units = ("mm",) * n if units is None else tuple(units)
+    if len(names) != n or len(units) != n:
+        raise ValueError(f"{len(names)} names and {len(units)} units for {n} parameters")
+    factor = np.array([report_factor(u) for u in units])
+    shown = sorted({report_unit(u) for u in units}, key=("µm", "µrad").index)
     fig, ax = plt.subplots(figsize=(max(12, 0.3 * n), 4.2))
     for i, (label, s) in enumerate(series.items()):
-        ax.semilogy(np.arange(n), np.maximum(s, 1e-12) * 1e3, "o-", ms=3, color=COLORS[i % len(COLORS)],
+        ax.semilogy(np.arange(n), np.maximum(np.asarray(s) * factor, 1e-9), "o-", ms=3, color=COLORS[i % len(COLORS)],
                     label=f"{label}: predicted std")
     if actual_error_mm is not None:
         for i, (label, e) in enumerate(as_mapping(actual_error_mm, "actual error").items()):
-            ax.semilogy(np.arange(n), np.maximum(np.abs(e), 1e-12) * 1e3, "x", ms=5,
+            ax.semilogy(np.arange(n), np.maximum(np.abs(np.asarray(e)) * factor, 1e-9), "x", ms=5,
                         color=COLORS[(i + len(series)) % len(COLORS)], label=f"{label}: |estimate − truth|")
-    ax.set_xticks(np.arange(n), names, rotation=90, fontsize=7)
+    ax.set_xticks(np.arange(n), [f"{m} ({report_unit(u)})" if len(shown) > 1 else m for m, u in zip(names, units,
+                                                                                                    strict=True)],
+                  rotation=90, fontsize=7)
     ax.set_xlabel("parameter")
-    ax.set_ylabel("µm")
+    ax.set_ylabel(" / ".join(f"{u} ({'lengths' if u == 'µm' else 'angles'})" for u in shown) if len(shown) > 1
+                  else shown[0])
     return finish(fig, ax, title)
 
 
-def plot_stroke_residuals(residuals_um: Any, *, sigma_um: float | None = None, title: str | None = None) -> Figure:
-    """Stroke residuals ``q' − IK(P', u)`` per pose and leg (µm), for one or several parameter
-    sets (label → ``(m, 6)``), e.g. nominal vs calibrated; ``sigma_um`` draws a ±2σ band."""
+def plot_stroke_residuals(
+    residuals_um: Any, *, sigma_um: float | None = None, title: str | None = None, unit: str = "µm"
+) -> Figure:
+    """Reading residuals ``q' − IK(P', u)`` per pose and leg (``unit``: µm for strokes, µrad for a
+    rotary family's crank angles), for one or several parameter sets (label → ``(m, 6)``), e.g.
+    nominal vs calibrated; ``sigma_um`` draws a ±2σ band (same unit)."""
     series = as_mapping(residuals_um, "residual")
     fig, axes = plt.subplots(len(series), 1, figsize=(10, 2.8 * len(series) + 0.5), squeeze=False, sharex=True)
     for ax, (label, r) in zip(axes[:, 0], series.items(), strict=True):
@@ -237,11 +252,11 @@ def plot_stroke_residuals(residuals_um: Any, *, sigma_um: float | None = None, t
         for leg in range(r.shape[1]):
             ax.plot(idx, r[:, leg], "o", ms=3, color=COLORS[leg % len(COLORS)], label=f"leg {leg + 1}")
         if sigma_um is not None:
-            ax.axhspan(-2 * sigma_um, 2 * sigma_um, color="0.88", zorder=0, label=f"±2σ = ±{2 * sigma_um:.3g} µm")
+            ax.axhspan(-2 * sigma_um, 2 * sigma_um, color="0.88", zorder=0, label=f"±2σ = ±{2 * sigma_um:.3g} {unit}")
         ax.axhline(0, color="0.4", lw=0.6)
         rms = float(np.sqrt(np.mean(r**2)))
-        ax.set_title(f"{label}: RMS {rms:.3g} µm", fontsize=10)
-        ax.set_ylabel("stroke residual (µm)")
+        ax.set_title(f"{label}: RMS {rms:.3g} {unit}", fontsize=10)
+        ax.set_ylabel(f"{'stroke' if unit == 'µm' else 'reading'} residual ({unit})")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, ncol=4)
     axes[-1, 0].set_xlabel("pose index (row of the CSV)")

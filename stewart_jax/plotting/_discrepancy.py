@@ -21,8 +21,8 @@ _WHICH = ("before", "after", "both")
 def _factor_label(factor: str) -> str:
     if factor == "direction":
         return "approach direction (±1)"
-    return (factor.replace("_um", " (µm)").replace("_arcsec", " (″)").replace("_C", " (°C)")
-            .replace("_s", " (s)"))
+    return (factor.replace("_urad", " (µrad)").replace("_um", " (µm)").replace("_arcsec", " (″)")
+            .replace("_C", " (°C)").replace("_s", " (s)"))
 
 
 def plot_residuals_vs_factor(

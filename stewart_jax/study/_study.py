@@ -516,12 +516,13 @@ def run_study(
                     "in a geometry file) or the method did not converge")
                 log(f"WARNING: {warnings[-1]}")
     return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
-            "n_devices": n_devices, "rows": rows, "warnings": warnings,
+            "cost_unit": f"{nominal.reading_unit}^2", "n_devices": n_devices, "rows": rows, "warnings": warnings,
             "paper_table2": PAPER_TABLE2 if paper else None}
 
 
 def _stroke_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
-    """RMS (mm) of the reading noise the pose noise causes at the zero pose: the scale against
+    """RMS (the reading unit: mm, or rad for a rotary family) of the reading noise the pose noise
+    causes at the zero pose: the scale against
     which a trial's RMS residual ``sqrt(S / 6m)`` is a gross misfit (0 without noise)."""
     from ..calibration._identifiability import pose_noise_covariance, stroke_noise_covariance
 
@@ -558,9 +559,10 @@ def _row(method, options, merged, seconds, keep_trials) -> dict[str, Any]:
 def format_study_table(result: dict[str, Any], where: str = "calibration") -> str:
     """Markdown table: median [90th percentile] over trials of the max control error."""
     units = {"um": "µm", "arcsec": "″"}
+    cost_unit = result.get("cost_unit", "mm^2").replace("^2", "²")
     head = "| method | " + " | ".join(
         f"{c} ({units[u]})" for c, u in zip(result["components"], result["units"], strict=True)
-    ) + " | median S (mm²) | median evaluations |"
+    ) + f" | median S ({cost_unit}) | median evaluations |"
     lines = [head, "|" + "---|" * 9]
     for label, row in result["rows"].items():
         med, p90 = row[where]["median"], row[where]["p90"]
