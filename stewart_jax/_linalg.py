@@ -4,17 +4,20 @@ Gaussian elimination with partial pivoting (Golub G. H., Van Loan C. F., *Matrix
 4th ed. (2013), Algorithms 4.2.1 (Cholesky), 3.1.3 (forward substitution) and 3.4.1 (Gaussian
 elimination with partial pivoting)).
 
-NOTE (why not ``jnp.linalg``). On CPU, ``jnp.linalg.cholesky``, ``solve`` and
-``jax.scipy.linalg.solve_triangular`` of a batch of matrices call jaxlib's LAPACK kernels. From
-jaxlib 0.10.0 those split a batch whose estimated cost exceeds 2·10⁵ flops (e.g. more than ~930
-6 × 6 LU factorisations) into chunks, schedule the chunks on XLA's intra-op thread pool and
-block the pool thread they run on until the chunks are done. When XLA runs as many such calls
-at once as the pool has threads (two independent solves of one program on a 2-core machine),
-every pool thread waits for chunks that no thread is left to run: the program never finishes
-(main thread in ``BlockUntilReady``, all threads idle). jaxlib removed the parallel path from
-open-source builds after 0.11.0 (jax commit 859992407d, "Don't try to parallelize LAPACK
-kernels in opensource builds"). The discrepancy workflow's batched fits hit it on sessions of
-a few hundred poses (``benchmarks/lapack_deadlock.py`` reproduces it); these routines keep such
+NOTE (why not ``jnp.linalg``; jaxlib 0.10.0 to 0.11.0, tested with 0.10.2). On CPU,
+``jnp.linalg.cholesky``, ``solve`` and ``jax.scipy.linalg.solve_triangular`` of a batch of
+matrices call jaxlib's LAPACK kernels. From jaxlib 0.10.0 (jax commit bfd9e1fbd3, "Add support
+for parallelizing lapack invocations on the batch dimension") those split a batch whose
+estimated cost exceeds 2·10⁵ flops (e.g. more than ~930 6 × 6 LU factorisations) into chunks,
+schedule the chunks on XLA's intra-op thread pool and block the pool thread they run on until
+the chunks are done. When XLA runs as many such calls at once as the pool has threads (two
+independent solves of one program on a 2-core machine), every pool thread waits for chunks that
+no thread is left to run: the program never finishes (main thread in ``BlockUntilReady``, all
+threads idle). jax removed the parallel path from
+open-source builds after the 0.11.0 release (jax commit 859992407d, "Don't try to parallelize
+LAPACK kernels in opensource builds"); until a jaxlib with that commit is the oldest supported,
+keep these routines. The discrepancy workflow's batched fits hit it on sessions of a few
+hundred poses (``benchmarks/lapack_deadlock.py`` reproduces it); these routines keep such
 programs free of LAPACK calls. A batch of unrelated tiny solves is slower this way than in
 LAPACK (about 2× for 6 × 6), but inside the discrepancy fits, where the Jacobians dominate, the
 difference is within the timing noise. The order ``n`` is unrolled at trace time: meant for ``n``
