@@ -21,6 +21,7 @@ one strut) and the null case. Outcomes of each run:
     python benchmarks/discrepancy_session.py            # 20 seeds (~30 min on 2 cores)
     python benchmarks/discrepancy_session.py --quick    # 2 seeds
     python benchmarks/discrepancy_session.py --resume   # go on with an interrupted run
+    python benchmarks/discrepancy_session.py --report   # tabulate the runs recorded so far
 
 Writes ``benchmarks/results/discrepancy_session[_quick].json`` and ``.md``; the runs of each seed
 are appended to ``….runs.jsonl`` as they finish.
@@ -167,7 +168,7 @@ def table(rows) -> dict:
     return out
 
 
-def to_markdown(tab: dict, seconds: float) -> str:
+def to_markdown(tab: dict, seconds: float | None) -> str:
     lines = ["# Hidden effects in independently simulated sessions", "",
              "Counts over seeds (see the script's docstring for the outcomes). Null case: `named` = "
              "correctly nothing detected. Gap = held-out reading-residual RMS over the noise floor (median).", "",
@@ -180,8 +181,26 @@ def to_markdown(tab: dict, seconds: float) -> str:
             str(v[o]) for o in OUTCOMES) + f" | {v['median_gap_before_over_floor']:.2f} | "
             f"{v['median_gap_after_over_floor']:.2f} |")
     wrong = sum(v["wrong"] for v in tab.values())
-    lines += ["", f"Wrong namings in all: **{wrong}**. Wall time {seconds:.0f} s (compile included)."]
+    timing = (f"Wall time {seconds:.0f} s (compile included)." if seconds is not None
+              else "Tabulated from the runs recorded so far (`--report`; runs per row as listed).")
+    lines += ["", f"Wrong namings in all: **{wrong}**. {timing}"]
     return "\n".join(lines) + "\n"
+
+
+def report(name: str, log: str, args) -> int:
+    """The table of the runs recorded in ``log`` (an unfinished run: seeds per row may differ)."""
+    families, noises = args.families.split(","), [float(x) for x in args.noise.split(",")]
+    with open(log) as f:
+        rows = [r for r in map(json.loads, f) if r["family"] in families and r["noise"] in noises]
+    seeds = {f"{fam} {noise:g}x": len({r["seed"] for r in rows if r["family"] == fam and r["noise"] == noise})
+             for fam in families for noise in noises}
+    tab = table(rows)
+    payload = {"settings": {"seeds": seeds, "families": args.families, "noise": args.noise, "poses": args.poses,
+                            "alpha": args.alpha, "holdout": 0.3}, "seconds": None, "table": tab, "runs": rows}
+    md = to_markdown(tab, None)
+    write_results(name, payload, md)
+    print(md)
+    return 0
 
 
 def main(argv=None) -> int:
@@ -194,10 +213,14 @@ def main(argv=None) -> int:
     ap.add_argument("--alpha", type=float, default=0.05)
     ap.add_argument("--resume", action="store_true",
                     help="keep the seeds already in results/NAME.runs.jsonl (an interrupted run)")
+    ap.add_argument("--report", action="store_true",
+                    help="run nothing: tabulate the runs recorded so far in results/NAME.runs.jsonl")
     args = ap.parse_args(argv)
     n = args.seeds or (2 if args.quick else 20)
     name = "discrepancy_session_quick" if args.quick else "discrepancy_session"
     log = os.path.join(HERE, "results", f"{name}.runs.jsonl")
+    if args.report:
+        return report(name, log, args)
     if not args.resume and os.path.exists(log):
         os.remove(log)
     t0 = time.perf_counter()
