@@ -69,9 +69,9 @@ def test_no_wrong_name_and_registered_effects_are_named(runs):
     assert wrong == []
     named = [r.named_effect == eff or eff in r.indistinguishable_from or (not r.detected and eff in r.absorbed_by)
              for eff, _, _, r in rows if eff in REGISTERED[family]]
-    # Measured over 20 seeds (benchmark): each registered effect named in ≥ 90 % of the runs (a
-    # true effect fails the held-out test at the test's own level α = 5 %); allowing 2 misses of
-    # 6–7 makes a failure here a ~1 % event for an arbitrary seed.
+    # Measured over 20 seeds at this noise (benchmark): each registered effect named (or absorbed)
+    # in 85–100 % of the runs (a true effect can fail the held-out test: p = 0.02–0.03 in those
+    # runs); per seed and family, at most 2 misses of 6–7 in 39 of 40 (one 6-PSS seed had 3).
     assert sum(named) >= len(named) - 2, named
     for *_, r in rows:
         if r.named_effect is not None:
@@ -115,8 +115,8 @@ def test_cyclic_screw_error_is_discovered_with_its_period_and_amplitude(runs):
             x = c[(leg, basis)]
             assert x["unit"] == "µm"
             assert abs(x["value"] - amp_um * want) < 5 * x["std"] + 0.05 * amp_um
-    # the gap closes towards the noise floor (the held-out test passes in ≥ 90 % of the
-    # benchmark's runs; the RMS itself is compared with its sampling spread)
+    # the gap closes towards the noise floor (the term passes the held-out test in 39 of the
+    # benchmark's 40 runs at this noise; the RMS itself is compared with its sampling spread)
     assert r.gap_after < 1.25 * r.noise_floor_predictive < r.gap_before
 
 
@@ -124,7 +124,7 @@ def test_discovered_model_predicts_as_the_search_did_and_round_trips(runs, tmp_p
     *_, rows = runs
     _, _, test, r = next(x for x in rows if x[0] == "cyclic_screw")
     if not r.explained:
-        pytest.skip("this seed's discovered term did not pass the held-out test (≤ 10 % of the runs)")
+        pytest.skip("this seed's discovered term did not pass the held-out test (1 of the benchmark's 40 runs)")
     # the augmented model (nonlinear prediction) reproduces the linearised search's held-out gap
     assert r.gap_after == pytest.approx(r.discovered[-1]["gap_after"], rel=2e-3)
     path = tmp_path / "aug.json"
