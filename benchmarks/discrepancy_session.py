@@ -20,8 +20,11 @@ one strut) and the null case. Outcomes of each run:
 
     python benchmarks/discrepancy_session.py            # 20 seeds (~30 min on 2 cores)
     python benchmarks/discrepancy_session.py --quick    # 2 seeds
+    python benchmarks/discrepancy_session.py --resume   # go on with an interrupted run
+    python benchmarks/discrepancy_session.py --report   # tabulate the runs recorded so far
 
-Writes ``benchmarks/results/discrepancy_session[_quick].json`` and ``.md``.
+Writes ``benchmarks/results/discrepancy_session[_quick].json`` and ``.md``; the runs of each seed
+are appended to ``….runs.jsonl`` as they finish.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
@@ -87,25 +91,23 @@ def outcome(effect, truth, rep) -> str:
     return "unexplained"
 
 
-def run(family: str, noise: float, seeds, alpha: float, n_poses: int):
+def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
+    """The rows of one seed: every case of ``family`` at ``noise``, diagnosed in one batch."""
     mech, geo, half = setup(family)
     model = dc.model_for(mech, 0.1 * noise, 0.1 * noise)
     cases = [None, *REGISTERED[family], *UNREGISTERED]
     trains, tests, meta = [], [], []
-    for s in seeds:
-        for c, eff in enumerate(cases):
-            rng = np.random.default_rng([s, c, int(noise * 10), len(family)])
-            ses = session(family, geo, eff, rng, half=half, n=n_poses, sigma_um=0.1 * noise,
-                          sigma_arcsec=0.1 * noise)
-            data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
-            tr, te = split_rows(n_poses, 0.3, s)
-            trains.append(data.take(tr))
-            tests.append(data.take(te))
-            meta.append((s, eff, ses.truth))
+    for c, eff in enumerate(cases):
+        rng = np.random.default_rng([s, c, int(noise * 10), len(family)])
+        ses = session(family, geo, eff, rng, half=half, n=n_poses, sigma_um=0.1 * noise,
+                      sigma_arcsec=0.1 * noise)
+        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        tr, te = split_rows(n_poses, 0.3, s)
+        trains.append(data.take(tr))
+        tests.append(data.take(te))
+        meta.append((s, eff, ses.truth))
     effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
-    n = len(cases)  # one batch per seed (one compile; larger batches stalled XLA's CPU runtime here)
-    reps = [r for i in range(0, len(trains), n)
-            for r in diagnose_many(model, effects, trains[i:i + n], tests[i:i + n], alpha=alpha)]
+    reps = diagnose_many(model, effects, trains, tests, alpha=alpha)  # one batch per seed: one compile
     rows = []
     for (s, eff, truth), rep in zip(meta, reps, strict=True):
         rows.append({
@@ -117,7 +119,35 @@ def run(family: str, noise: float, seeds, alpha: float, n_poses: int):
                            for t in rep.discovered],
             "gap_before_um": rep.gap_before, "gap_after_um": rep.gap_after, "noise_floor_um": rep.noise_floor,
             "truth_leg": truth.get("leg"),
+            "truth_period_mm": truth.get("period_mm"),
+            "named_p_heldout": next((c.heldout_p for c in rep.ranking if c.effect == rep.named_effect), None),
+            "notes": rep.notes,
         })
+    return rows
+
+
+def run(family: str, noise: float, seeds, alpha: float, n_poses: int, log: str | None = None):
+    """Rows of every seed; with ``log`` (a JSON-lines file) each seed's rows are appended as soon
+    as they exist and seeds already there are read back, not re-run (an interrupted run resumes)."""
+    done: dict[int, list] = {}
+    if log and os.path.exists(log):
+        with open(log) as f:
+            for line in f:
+                r = json.loads(line)
+                if r["family"] == family and r["noise"] == noise:
+                    done.setdefault(r["seed"], []).append(r)
+    rows = []
+    for s in seeds:
+        if s in done:
+            rows += done[s]
+            continue
+        new = run_seed(family, noise, s, alpha, n_poses)
+        if log:
+            with open(log, "a") as f:
+                f.write("".join(json.dumps(r) + "\n" for r in new))
+                f.flush()
+                os.fsync(f.fileno())
+        rows += new
     return rows
 
 
@@ -138,7 +168,7 @@ def table(rows) -> dict:
     return out
 
 
-def to_markdown(tab: dict, seconds: float) -> str:
+def to_markdown(tab: dict, seconds: float | None) -> str:
     lines = ["# Hidden effects in independently simulated sessions", "",
              "Counts over seeds (see the script's docstring for the outcomes). Null case: `named` = "
              "correctly nothing detected. Gap = held-out reading-residual RMS over the noise floor (median).", "",
@@ -151,8 +181,26 @@ def to_markdown(tab: dict, seconds: float) -> str:
             str(v[o]) for o in OUTCOMES) + f" | {v['median_gap_before_over_floor']:.2f} | "
             f"{v['median_gap_after_over_floor']:.2f} |")
     wrong = sum(v["wrong"] for v in tab.values())
-    lines += ["", f"Wrong namings in all: **{wrong}**. Wall time {seconds:.0f} s (compile included)."]
+    timing = (f"Wall time {seconds:.0f} s (compile included)." if seconds is not None
+              else "Tabulated from the runs recorded so far (`--report`; runs per row as listed).")
+    lines += ["", f"Wrong namings in all: **{wrong}**. {timing}"]
     return "\n".join(lines) + "\n"
+
+
+def report(name: str, log: str, args) -> int:
+    """The table of the runs recorded in ``log`` (an unfinished run: seeds per row may differ)."""
+    families, noises = args.families.split(","), [float(x) for x in args.noise.split(",")]
+    with open(log) as f:
+        rows = [r for r in map(json.loads, f) if r["family"] in families and r["noise"] in noises]
+    seeds = {f"{fam} {noise:g}x": len({r["seed"] for r in rows if r["family"] == fam and r["noise"] == noise})
+             for fam in families for noise in noises}
+    tab = table(rows)
+    payload = {"settings": {"seeds": seeds, "families": args.families, "noise": args.noise, "poses": args.poses,
+                            "alpha": args.alpha, "holdout": 0.3}, "seconds": None, "table": tab, "runs": rows}
+    md = to_markdown(tab, None)
+    write_results(name, payload, md)
+    print(md)
+    return 0
 
 
 def main(argv=None) -> int:
@@ -163,13 +211,23 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", default="1,3", help="noise levels, multiples of 0.1 µm / 0.1″")
     ap.add_argument("--poses", type=int, default=180)
     ap.add_argument("--alpha", type=float, default=0.05)
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the seeds already in results/NAME.runs.jsonl (an interrupted run)")
+    ap.add_argument("--report", action="store_true",
+                    help="run nothing: tabulate the runs recorded so far in results/NAME.runs.jsonl")
     args = ap.parse_args(argv)
     n = args.seeds or (2 if args.quick else 20)
+    name = "discrepancy_session_quick" if args.quick else "discrepancy_session"
+    log = os.path.join(HERE, "results", f"{name}.runs.jsonl")
+    if args.report:
+        return report(name, log, args)
+    if not args.resume and os.path.exists(log):
+        os.remove(log)
     t0 = time.perf_counter()
     rows = []
     for fam in args.families.split(","):
         for noise in (float(x) for x in args.noise.split(",")):
-            g = run(fam, noise, range(n), args.alpha, args.poses)
+            g = run(fam, noise, range(n), args.alpha, args.poses, log)
             rows += g
             print(f"{fam} {noise:g}x: " + str({o: sum(r["outcome"] == o for r in g) for o in OUTCOMES})
                   + f" ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
@@ -178,7 +236,7 @@ def main(argv=None) -> int:
     payload = {"settings": {"seeds": n, "families": args.families, "noise": args.noise, "poses": args.poses,
                             "alpha": args.alpha, "holdout": 0.3}, "seconds": seconds, "table": tab, "runs": rows}
     md = to_markdown(tab, seconds)
-    write_results("discrepancy_session_quick" if args.quick else "discrepancy_session", payload, md)
+    write_results(name, payload, md)
     print(md)
     return 0
 

@@ -80,22 +80,27 @@ class TermSpec(NamedTuple):
     leg: int | None
 
 
-def _factor_values(spec: TermSpec, reading, data) -> np.ndarray | jnp.ndarray:
-    """``(m, k)`` values of the term's basis functions stacked on a last axis ``(m, k, c)``:
-    ``reading`` in mm, poses in mm and degrees, temperature minus 20 °C, time in hours."""
-    xp = jnp if isinstance(reading, jnp.ndarray) and not isinstance(reading, np.ndarray) else np
+def _factor_x(spec: TermSpec, reading, data, xp=np):
+    """``(m, k)`` values of the term's factor: ``reading`` in mm, poses in mm and degrees,
+    temperature minus 20 °C, time in hours."""
     m, k = reading.shape
     if spec.factor == "reading":
-        x = reading
-    elif spec.factor == "dir":
-        x = xp.asarray(data.directions)
-    elif spec.factor == "temperature":
-        x = xp.broadcast_to(xp.asarray(data.temperature)[:, None] - T_REF_C, (m, k))
-    elif spec.factor == "time":
-        x = xp.broadcast_to(xp.asarray(data.time)[:, None] / HOUR_S, (m, k))
-    else:
-        _, i, f, _ = next(p for p in _POSE if p[0] == spec.factor)
-        x = xp.broadcast_to(xp.asarray(data.poses)[:, i : i + 1] * f, (m, k))
+        return reading
+    if spec.factor == "dir":
+        return xp.asarray(data.directions)
+    if spec.factor == "temperature":
+        return xp.broadcast_to(xp.asarray(data.temperature)[:, None] - T_REF_C, (m, k))
+    if spec.factor == "time":
+        return xp.broadcast_to(xp.asarray(data.time)[:, None] / HOUR_S, (m, k))
+    _, i, f, _ = next(p for p in _POSE if p[0] == spec.factor)
+    return xp.broadcast_to(xp.asarray(data.poses)[:, i : i + 1] * f, (m, k))
+
+
+def _factor_values(spec: TermSpec, reading, data) -> np.ndarray | jnp.ndarray:
+    """``(m, k)`` values of the term's basis functions stacked on a last axis ``(m, k, c)``
+    (the factor's units as in :func:`_factor_x`)."""
+    xp = jnp if isinstance(reading, jnp.ndarray) and not isinstance(reading, np.ndarray) else np
+    x = _factor_x(spec, reading, data, xp)
     if spec.form == "periodic":
         a = 2 * math.pi * x / spec.period
         cols = xp.stack([xp.sin(a), xp.cos(a)], axis=-1)
@@ -231,26 +236,66 @@ def _library(reading_tr: np.ndarray, data, k: int) -> list[list[TermSpec]]:
 
 def _columns(spec: TermSpec, reading, data, w) -> np.ndarray:
     """Whitened columns ``(n, c·legs)`` of one group: the residual changes by ``−W e_j t``
-    per unit coefficient; the sign is folded into the coefficient (``r ≈ J δ + C c``)."""
-    k = reading.shape[1]
-    vals = _factor_values(spec, reading, data)  # (m, k, c)
-    cols = []
-    for j in _legs(spec, k):
-        for c in range(vals.shape[-1]):
-            cols.append((w[:, :, j] * vals[:, j, c : c + 1]).reshape(-1))
-    return np.stack(cols, axis=1)
+    per unit coefficient; the sign is folded into the coefficient (``r ≈ J δ + C c``). Column
+    ``l·c + b`` of row ``i·k + o`` is ``w[i, o, leg_l] · basis_b(x[i, leg_l])``."""
+    return _whiten(w, _factor_values(spec, reading, data)[None], _legs(spec, reading.shape[1]))[0]
+
+
+def _whiten(w: np.ndarray, vals: np.ndarray, legs: list[int]) -> np.ndarray:
+    """``(g, n, c·legs)`` columns of basis values ``vals`` ``(g, m, k, c)`` (see :func:`_columns`)."""
+    g, m, k, c = vals.shape
+    return (w[None, :, :, legs, None] * vals[:, :, None, legs, :]).reshape(g, m * k, len(legs) * c)
+
+
+def _stack_columns(specs: Sequence[TermSpec], reading, data, w) -> np.ndarray:
+    """:func:`_columns` of groups of equal width stacked, ``(g, n, p)``; the periods of a
+    periodic family (one leg, one factor) in one vectorised evaluation."""
+    s0 = specs[0]
+    if s0.form == "periodic" and all(s._replace(period=s0.period) == s0 for s in specs):
+        x = _factor_x(s0, reading, data)
+        a = (2 * math.pi / np.array([s.period for s in specs]))[:, None, None] * x  # (g, m, k)
+        vals = np.stack([np.sin(a), np.cos(a)], axis=-1)
+        if s0.times == "temperature":
+            vals = vals * (np.asarray(data.temperature)[None, :, None, None] - T_REF_C)
+        return _whiten(w, vals, _legs(s0, reading.shape[1]))
+    return np.stack([_columns(s, reading, data, w) for s in specs])
+
+
+GRAM_SINE = 1e-4
+"""Below this principal-angle sine of a column to the base span, :func:`_drops` projects the
+column explicitly instead of through Gram matrices (whose subtraction loses ~1e-16 / sine²)."""
 
 
 def _drops(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> np.ndarray:
     """:func:`_drop` for a stack of column sets ``c`` ``(g, n, p)`` of equal width (a
-    pseudo-inverse of each ``p × p`` Gram matrix, cut at the rank tolerance)."""
-    cp = c - np.einsum("nr,grp->gnp", q, np.einsum("nr,gnp->grp", q, c))
-    norms = np.linalg.norm(cp, axis=1, keepdims=True)
-    seen = norms > SINE_TOL * np.linalg.norm(c, axis=1, keepdims=True)  # directions the base does not absorb
-    cp = np.where(seen, cp / np.where(seen, norms, 1.0), 0.0)
-    b = np.einsum("gnp,n->gp", cp, r)
-    gram = np.einsum("gnp,gnq->gpq", cp, cp)
-    return np.einsum("gp,gpq,gq->g", b, np.linalg.pinv(gram, rcond=1e-9, hermitian=True), b)
+    pseudo-inverse of each ``p × p`` Gram matrix of the unit-normalised projected columns, cut
+    at the rank tolerance).
+
+    NOTE: most of the open search's time is here, so the projected Gram matrix is formed as
+    ``cᵀc − (Qᵀc)ᵀ(Qᵀc)`` and ``cpᵀr = cᵀr`` (``r`` is orthogonal to ``Q``) — products of
+    ``p`` columns, no ``(g, n, p)`` temporaries. That subtraction is accurate to ~1e-16/sine²
+    relative, so groups with a column closer to the base span than :data:`GRAM_SINE` are
+    projected explicitly (``c − Q Qᵀ c``), which keeps the absorbed-column test at
+    :data:`~stewart_jax.discrepancy._subspace.SINE_TOL` exact."""
+    ct = np.swapaxes(c, 1, 2)
+    qc = q.T @ c
+    cc = ct @ c
+    gram = cc - np.swapaxes(qc, 1, 2) @ qc
+    nc, ng = np.diagonal(cc, axis1=1, axis2=2), np.diagonal(gram, axis1=1, axis2=2)
+    close = np.any(ng <= GRAM_SINE**2 * nc, axis=-1)
+    b = ct @ r
+    if np.any(close):  # the columns of these groups projected explicitly
+        cp = c[close] - q @ qc[close]
+        norms2 = np.sum(cp * cp, axis=1)
+        gram[close] = np.swapaxes(cp, 1, 2) @ cp
+        ng = ng.copy()
+        ng[close] = norms2
+        b[close] = np.swapaxes(cp, 1, 2) @ r
+    seen = ng > SINE_TOL**2 * nc  # directions the base does not absorb
+    dinv = np.where(seen, 1.0 / np.sqrt(np.where(seen, ng, 1.0)), 0.0)
+    b = b * dinv
+    gram = gram * dinv[:, :, None] * dinv[:, None, :]
+    return np.sum(b * (np.linalg.pinv(gram, rcond=1e-9, hermitian=True) @ b[..., None])[..., 0], axis=-1)
 
 
 def _drop(q: np.ndarray, r: np.ndarray, c: np.ndarray) -> float:
@@ -271,7 +316,7 @@ def best_group(fams, chosen, q, r, reading_tr, train, w_tr, known):
     for fam in same_width:
         if not fam:
             continue
-        drops = _drops(q, r, np.stack([_columns(spec, reading_tr, train, w_tr) for spec in fam]))
+        drops = _drops(q, r, _stack_columns(fam, reading_tr, train, w_tr))
         for spec, drop in zip(fam, drops, strict=True):
             df = _n_coef(spec) * len(_legs(spec, k))
             gain = bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known)
@@ -280,7 +325,7 @@ def best_group(fams, chosen, q, r, reading_tr, train, w_tr, known):
     if best is not None and best[0].form == "periodic":
         spec, drop, df, gain = best
         grid = spec.period * np.linspace(1 - 2 * (PERIOD_RATIO - 1), 1 + 2 * (PERIOD_RATIO - 1), 41)
-        drops = [_drop(q, r, _columns(spec._replace(period=float(p)), reading_tr, train, w_tr)) for p in grid]
+        drops = _drops(q, r, _stack_columns([spec._replace(period=float(p)) for p in grid], reading_tr, train, w_tr))
         i = int(np.argmax(drops))
         spec, drop = spec._replace(period=float(grid[i])), drops[i]
         best = (spec, drop, df, bic(chi2_now, p_now, n_tr, known) - bic(chi2_now - drop, p_now + df, n_tr, known))

@@ -1,5 +1,6 @@
 """Fits of the discrepancy workflow: the base model (Levenberg–Marquardt) and base + any subset
-of effects (Gauss–Newton from the base optimum), weighted by the model's whitener.
+of effects (Gauss–Newton from the base optimum with the Jacobian there; with the Jacobian at
+every step where that does not converge), weighted by the model's whitener.
 
 Every fit is the same jitted function of a 0/1 mask over the effects (inactive parameters do
 not enter the prediction), so the base model, single candidates and candidate pairs share one
@@ -76,11 +77,13 @@ def _keep(model, effects, mask):
     return jnp.concatenate([jnp.ones(nb)] + [jnp.full(e.n_params, mask[i]) for i, e in enumerate(effects)])
 
 
-def _base_residual(fixed, zb, args):
-    model, effects = fixed
+def _base_residual(model, zb, args):
+    """The whitened residual of the base model alone. NOTE: no effect is evaluated (each is the
+    identity at θ = 0, so the prediction is the same): the loop of the batched fit then holds the
+    base model only, not every candidate's state changes multiplied by zero."""
     data, w0 = args
-    n_eff = sum(e.n_params for e in effects)
-    return _white_residual(jnp.concatenate([zb, jnp.zeros(n_eff)]), (model, effects, jnp.zeros(len(effects)), data, w0))
+    r = model.observed(data) - model.predict(model.base_initial + model.base_scale * zb, (), (), data)
+    return jnp.einsum("mij,mj->mi", w0, r).reshape(-1)
 
 
 @eqx.filter_jit
@@ -93,7 +96,7 @@ def _base_fits(model, effects, trains):
     n_eff = sum(e.n_params for e in effects)
     w0 = jax.vmap(lambda d: model.whitener(model.base_initial, d))(trains)
     b = w0.shape[0]
-    res = least_squares_batch(jax.tree_util.Partial(_base_residual, (model, effects)),
+    res = least_squares_batch(jax.tree_util.Partial(_base_residual, model),
                               BatchedLevenbergMarquardt(max_steps=MAX_STEPS), jnp.zeros((b, nb)), args=(trains, w0))
     return jnp.concatenate([res.params, jnp.zeros((b, n_eff))], axis=1), res.status == RESULTS.successful
 
@@ -162,46 +165,87 @@ def _start(model, effects, mask, train, w_tr, z0, profiles):
     return jnp.where(chi2[best] < chi2_0, zs[best] * keep, z0 * keep)
 
 
-def _fit_gn(model, effects, mask, train, w_tr, test, z0, profiles=None):
-    """Gauss–Newton refinement of base + the effects in ``mask`` from ``z0`` (the base fit).
+def _fit_gn(model, effects, mask, train, w_tr, test, z0, jac0, profiles=None):
+    """Gauss–Newton refinement of base + the effects in ``mask`` from ``z0`` (the base fit), with
+    the whitened Jacobian ``jac0`` of every unknown at ``z0``.
 
     NOTE: started at the base optimum with the effect parameters at 0, every augmented problem
-    is linear to within (effect size / lever arm) ~1e-4, so Gauss–Newton converges in two or
-    three steps; a fixed number of steps in a ``lax.scan`` keeps the kernel cheap to compile
-    and to batch over candidates, pairs and data sets (a batched trust-region solver compiles
-    ~10× slower here). The last step's size is returned as the convergence check. Inactive
-    parameters get an identity row and active ones a tiny ridge (on unit-normalised columns),
-    so each step is a full-rank solve even when two effects are collinear. The normal equations
-    (Cholesky, ~1 ms) replace QR (~50 ms on CPU for these sizes): they square the condition
-    number (~1e5 → 1e10 here), which costs accuracy in the step, not in the fixed point — the
-    next step corrects it. A model whose effects are far from linear (a frequency change over a
-    long record) names starting points (:func:`_start`) and its own number of steps, each then
-    shortened until it lowers χ² (:data:`LINE_SEARCH`).
+    is linear to within (effect size / lever arm) ~1e-4, so the Jacobian at the start serves
+    every step (the chord method: Kelley C. T., *Iterative Methods for Linear and Nonlinear
+    Equations*, SIAM 1995, §5.4): each step costs one evaluation of the residual, not of its
+    Jacobian (which dominated the whole workflow's time), and the normal equations are
+    factorised once. Its fixed point solves ``J0ᵀ r(z) = 0`` instead of ``J(z)ᵀ r(z) = 0``:
+    the χ² there exceeds the minimum by O((ΔJ/J)²·χ²) ~ 1e-8·χ², far below any difference the
+    tests resolve, and the convergence rate is that ~1e-4 per step. A fixed number of steps in a
+    ``lax.scan`` keeps the kernel cheap to compile and to batch over candidates, pairs and data
+    sets (a batched trust-region solver compiles ~10× slower here); the last step's change of
+    χ² is returned as the convergence check. Inactive parameters get an identity row and
+    active ones a tiny ridge (on unit-normalised columns), so the solve is full-rank even when
+    two effects are collinear. The normal equations (Cholesky, ~1 ms) replace QR (~50 ms on
+    CPU for these sizes): they square the condition number (~1e5 → 1e10 here), which costs
+    accuracy in the step, not in the fixed point — the next step corrects it.
+
+    NOTE (when the chord method fails). The contraction ``‖I − (J0ᵀJ0)⁻¹J0ᵀJ(z)‖`` is small only
+    when no combination of the unknowns is nearly degenerate: an effect that the base parameters
+    almost absorb (a misaligned instrument frame on the 6-PSS, nearly a rigid motion of its base)
+    turns the small change of ``J`` into a large one of the step, and the chord iteration stalls
+    or diverges (measured on sessions with a hidden 10–20″ misalignment: the candidate left the
+    held-out gap at 20× the noise floor and was not named). A fit whose chord steps did not
+    converge is therefore redone by full Gauss–Newton from ``z0`` (the Jacobian at every step),
+    under ``lax.cond`` inside the ``lax.map`` loops: only such fits pay for the Jacobians.
+
+    A model whose effects are far from linear (a frequency change over a long record) names
+    starting points (:func:`_start`, ``profiles``) and its own number of steps; its fits take
+    full Gauss–Newton steps from there, each shortened until it lowers χ² (:data:`LINE_SEARCH`).
     """
     keep = _keep(model, effects, mask)
     args = (model, effects, mask, train, w_tr)
-    search = model.effect_grid(effects) is not None
+    ridge = jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
 
-    def step(carry, _):
+    def normalise(jac):
+        norms = jnp.linalg.norm(jac * keep, axis=0)
+        d = jnp.where(norms > 0, norms, 1.0)
+        return jac * keep / d, d
+
+    a, d = normalise(jac0)
+    factor = jax.scipy.linalg.cho_factor(a.T @ a + ridge)
+
+    def chord(carry, _):
         z, _ = carry
         r = _white_residual(z, args)
-        jac = jax.jacfwd(_white_residual)(z, args) * keep
-        norms = jnp.linalg.norm(jac, axis=0)
-        d = jnp.where(norms > 0, norms, 1.0)
-        a = jac / d
-        normal = a.T @ a + jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
-        dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(normal), a.T @ r) / d * keep
-        chi2 = jnp.sum(r**2)
-        if search:  # backtracking: the longest step that lowers χ², else none
+        dz = -jax.scipy.linalg.cho_solve(factor, a.T @ r) / d * keep
+        return (z + dz, jnp.sum(r**2)), None
+
+    def newton(carry, _):
+        z, _ = carry
+        r = _white_residual(z, args)
+        an, dn = normalise(jax.jacfwd(_white_residual)(z, args))
+        dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(an.T @ an + ridge), an.T @ r) / dn * keep
+        return (z + dz, jnp.sum(r**2)), None
+
+    def run(step):
+        (z, chi2_prev), _ = jax.lax.scan(step, (z0 * keep, jnp.inf), None, length=GN_STEPS)
+        chi2 = jnp.sum(_white_residual(z, args) ** 2)
+        return z, chi2, jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
+
+    if model.effect_grid(effects) is not None:
+        def searched(carry, _):  # backtracking: the longest step that lowers χ², else none
+            z, _ = carry
+            r = _white_residual(z, args)
+            chi2 = jnp.sum(r**2)
+            an, dn = normalise(jax.jacfwd(_white_residual)(z, args))
+            dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(an.T @ an + ridge), an.T @ r) / dn * keep
             trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
             ok = jnp.isfinite(trial) & (trial < chi2)
-            dz = dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0)
-        return (z + dz, chi2), None
+            return (z + dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0), chi2), None
 
-    z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
-    (z, chi2_prev), _ = jax.lax.scan(step, (z_start, jnp.inf), None, length=model.fit_steps or GN_STEPS)
-    chi2 = jnp.sum(_white_residual(z, args) ** 2)
-    converged = jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
+        z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
+        (z, chi2_prev), _ = jax.lax.scan(searched, (z_start, jnp.inf), None, length=model.fit_steps or GN_STEPS)
+        chi2 = jnp.sum(_white_residual(z, args) ** 2)
+        converged = jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
+    else:
+        z, chi2, converged = run(chord)
+        z, chi2, converged = jax.lax.cond(converged, lambda: (z, chi2, converged), lambda: run(newton))
     raw_te = _raw_residual(z, model, effects, mask, test)
     return z, chi2, converged, raw_te
 
@@ -218,8 +262,8 @@ def _prepare(model, effects, train, test, z_base):
     return w_tr, w_te, jac_tr, jac_te
 
 
-def _fit_masks(model, effects, masks, train, w_tr, test, z0, profiles=None):
-    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0, profiles), masks)
+def _fit_masks(model, effects, masks, train, w_tr, test, z0, jac0, profiles=None):
+    return jax.lax.map(lambda m: _fit_gn(model, effects, m, train, w_tr, test, z0, jac0, profiles), masks)
 
 
 def _map_datasets(fn, in_axes):
@@ -242,11 +286,12 @@ def _map_datasets(fn, in_axes):
 
 
 _prepare_many = eqx.filter_jit(eqx.filter_vmap(_prepare, in_axes=(None, None, 0, 0, 0)))
-fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0, 0)))
-"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b], profiles) -> (z, χ², converged,
-held-out raw residuals)``, each with leading axes ``(b, q)``: base + the effects of each mask
-fitted to each of ``b`` data sets (stacked pytrees); ``profiles`` (``None`` for a model without an
-effect grid) are the starting points of :func:`_start`, per data set."""
+fit_masks_many = eqx.filter_jit(_map_datasets(_fit_masks, (None, None, 0, 0, 0, 0, 0, 0, 0)))
+"""``(model, effects, masks[b, q, K], trains, w_tr, tests, z0[b], jac0[b], profiles) -> (z, χ²,
+converged, held-out raw residuals)``, each with leading axes ``(b, q)``: base + the effects of
+each mask fitted to each of ``b`` data sets (stacked pytrees; ``jac0`` the whitened training
+Jacobians at ``z0``; ``profiles`` (``None`` for a model without an effect grid) the starting
+points of :func:`_start`, per data set)."""
 _profiles_many = eqx.filter_jit(_map_datasets(_grid_profiles, (None, None, 0, 0)))
 
 
@@ -291,7 +336,7 @@ def fit_candidates(
     b = z_base.shape[0]
     masks = jnp.broadcast_to(jnp.concatenate([jnp.zeros((1, k)), jnp.eye(k)]), (b, k + 1, k))
     profiles = _profiles_many(model, effects, trains, w_tr) if model.effect_grid(effects) is not None else None
-    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base, profiles)
+    z, chi2, last, raw_te = fit_masks_many(model, effects, masks, trains, w_tr, tests, z_base, jac_tr, profiles)
     return BatchFits(
         *jax.device_get((z, chi2, ok[:, None] & last, raw_te, w_te, w_tr, jac_tr, jac_te, ok))
     )
@@ -321,7 +366,8 @@ def fit_pairs(
         moves = np.concatenate([np.eye(k), np.ones((pad, k))])[None].repeat(b, axis=0)
         profiles = (jnp.asarray(zs), jnp.asarray(chi2_1), jnp.asarray(moves))
     _, chi2, _, _ = jax.device_get(
-        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0], profiles)
+        fit_masks_many(model, effects, jnp.asarray(masks), trains, fits.w_tr, tests, fits.z[:, 0], fits.jac_tr,
+                       profiles)
     )
     return chi2
 

@@ -65,6 +65,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from .._linalg import solve
 from .._math import rotation_matrix
 from .._units import UM
 from ..calibration._points import PointData, TrackerTargets, start_values, tracker_whitening
@@ -175,7 +176,7 @@ class PointsModel(AbstractDiscrepancyModel):
         tangents = jnp.broadcast_to(jnp.eye(6)[:, None, :], (6,) + start.shape)
         jac = jnp.moveaxis(jax.vmap(lambda t: jax.jvp(lambda p: readings(p, frozen), (start,), (t,))[1])(tangents),
                            0, -1)
-        inverse = _pseudo_inverse(jac)  # (n, reading, pose component) → (n, component, reading)
+        inverse = _inverse(jac)  # (n, reading, pose component) → (n, component, reading)
 
         def chord(poses, _):
             return poses - jnp.einsum("nij,nj->ni", inverse, readings(poses) - data.strokes), None
@@ -218,24 +219,19 @@ class PointsModel(AbstractDiscrepancyModel):
         return out
 
 
-def _pseudo_inverse(jac: Float[Array, "n 6 6"]) -> Float[Array, "n 6 6"]:
-    """``(JᵀJ)⁻¹Jᵀ`` per row, columns scaled to unit norm first.
+def _inverse(jac: Float[Array, "n 6 6"]) -> Float[Array, "n 6 6"]:
+    """``J⁻¹`` per row: Gaussian elimination with partial pivoting on ``J`` with its columns scaled
+    to unit norm (``J = A·D``, ``J⁻¹ = D⁻¹A⁻¹``).
 
-    NOTE: in element-wise operations (the batched LM's written-out Cholesky) rather than LAPACK's
-    ``inv``: with a LAPACK call per 6 × 6 matrix inside the fits' loops, the discrepancy fits of a
-    points file stalled in XLA's CPU runtime (0 % CPU, every thread waiting) in each of three
-    runs on the loaded 2-core machine; without it they ran. Squaring the condition number costs
-    only speed in the chord steps (each step recomputes the residual). The stall is that of
-    jaxlib 0.10's batched LAPACK kernels on XLA's CPU thread pool; element-wise replacements of
-    them belong in ``stewart_jax/_linalg.py``, and this solve should become one of them."""
-    from ..optimise._batched_lm import _cholesky_solve
-
+    NOTE: in element-wise operations (:func:`stewart_jax._linalg.solve`) rather than LAPACK's
+    ``inv``: with jaxlib 0.10.0 to 0.11.0 a batched LAPACK call can deadlock XLA's CPU thread pool
+    (see the NOTE of ``stewart_jax._linalg``); with LAPACK calls on these 6 × 6 matrices inside the
+    fits' loops, the discrepancy fits of a points file stalled (0 % CPU, every thread waiting) in
+    each of three runs on a loaded 2-core machine."""
     norms = jnp.linalg.norm(jac, axis=-2)  # (n, 6) column norms
     a = jac / norms[:, None, :]
-    normal = jnp.einsum("nki,nkj->nij", a, a)
-    cols = jax.vmap(lambda e: _cholesky_solve(normal, jnp.broadcast_to(e, normal.shape[:2])), out_axes=-1)(
-        jnp.eye(6))  # (n, 6, 6) = (AᵀA)⁻¹
-    return jnp.einsum("ni,nij,nkj->nik", 1.0 / norms, cols, a)
+    inv_a = jax.vmap(lambda e: solve(a, jnp.broadcast_to(e, a.shape[:2])), out_axes=-1)(jnp.eye(6))
+    return inv_a / norms[:, :, None]
 
 
 def points_model_name(inner_name: str) -> str:

@@ -20,11 +20,11 @@ from __future__ import annotations
 import abc
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._linalg import cholesky, lower_inverse
 from .._units import ARCSEC, COMPONENTS, UM, ascii_unit, report_factor, report_unit
 from ..calibration._problem import CalibrationData
 from ..mechanism._abstract import AbstractMechanism
@@ -60,8 +60,9 @@ class AbstractPoseNoiseModel(AbstractDiscrepancyModel):
         return cov + self.reading_sigma**2 * jnp.eye(6)
 
     def whitener(self, base: Float[Array, " p"], data: CalibrationData) -> Float[Array, "m 6 6"]:
-        chol = jnp.linalg.cholesky(self.noise_covariance(base, data))
-        return jax.vmap(lambda c: jax.scipy.linalg.solve_triangular(c, jnp.eye(6), lower=True))(chol)
+        # element-wise, not LAPACK: see the NOTE of stewart_jax._linalg (a batched LAPACK call can
+        # deadlock XLA's CPU thread pool with jaxlib 0.10)
+        return lower_inverse(cholesky(self.noise_covariance(base, data)))
 
     def derived_errors(
         self, base: Float[Array, " p"], data: CalibrationData, residuals: np.ndarray

@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._linalg import solve
 from .._math import rotation_matrix
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
@@ -87,7 +88,7 @@ def gravity_axial_loads(
     u = strut / jnp.linalg.norm(strut, axis=-1, keepdims=True)
     g = jnp.concatenate([u, jnp.cross(r, u)], axis=-1)  # (m, strut, 6): the columns of the statics matrix
     wrench = jnp.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0])
-    return jnp.linalg.solve(jnp.swapaxes(g, -1, -2), jnp.broadcast_to(wrench, poses.shape)[..., None])[..., 0]
+    return solve(jnp.swapaxes(g, -1, -2), jnp.broadcast_to(wrench, poses.shape))  # not LAPACK: see stewart_jax._linalg
 
 
 # NOTE: the report's derived errors and factors are evaluated outside the fits; compiled, they
