@@ -273,6 +273,7 @@ def _map_datasets(fn, in_axes):
     every fit is a handful of small QR solves; ``lax.map`` keeps one compiled loop body."""
 
     def mapped(*args):
+        args = args + (None,) * (len(in_axes) - len(args))  # trailing optional arguments left out: None
         fixed = [a if ax is None else None for a, ax in zip(args, in_axes, strict=True)]
         moving = [a if ax is not None else None for a, ax in zip(args, in_axes, strict=True)]
 
