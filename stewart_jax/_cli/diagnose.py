@@ -120,14 +120,7 @@ def _finish(args: argparse.Namespace, report, out: dict) -> int:
     skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
     for line in report.summary() + ([f"skipped {skipped}"] if skipped else []):
         print(f"diagnose: {line}", file=sys.stderr)
-    if args.json:
-        from ._common import write_json
-
-        write_json(args.json, out)
-    else:
-        from .._files import json_text
-
-        print(json_text(out, indent=None), end="")
+    _emit(args, out)
     return 0
 
 
@@ -220,6 +213,12 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
                  "(augmented model); measured on FAST: 0.12–0.2 Hz")
     for line in lines + ([f"skipped {skipped}"] if skipped else []):
         print(f"diagnose: {line}", file=sys.stderr)
+    _emit(args, out)
+    return 0
+
+
+def _emit(args: argparse.Namespace, out: dict) -> None:
+    """The report's JSON: to ``--json`` (atomically), else to standard output."""
     if args.json:
         from ._common import write_json
 
@@ -228,7 +227,6 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
         from .._files import json_text
 
         print(json_text(out, indent=None), end="")
-    return 0
 
 
 def _position(text: str) -> tuple[float, float, float]:
