@@ -153,6 +153,17 @@ class AbstractMechanism(eqx.Module):
     def n_params(self) -> int:
         return int(self.params.shape[-1])
 
+    def checked_params(self, params: Float[Array, "... n"]) -> Float[Array, "... n"]:
+        """``params`` as float64 with a last axis of :attr:`n_params`, else a ``ValueError``
+        naming the family (and its parameter set); the first step of every ``with_params``."""
+        p = jnp.asarray(params, dtype=jnp.float64)
+        n = self.n_params
+        if p.shape[-1:] != (n,):
+            param_set = getattr(self, "param_set", None)
+            which = f" ({param_set}-parameter set)" if param_set is not None else ""
+            raise ValueError(f"{self.family}{which} params must have a last axis of {n}, got shape {p.shape}")
+        return p
+
     @property
     def leg_parameters(self) -> tuple[tuple[int, ...], ...] | None:
         """Per leg, the indices in :attr:`params` that its reading depends on — disjoint sets, so

@@ -192,11 +192,7 @@ class PSSMechanism(AbstractMechanism):
         return (100.0, 90.0)
 
     def with_params(self, params: Float[Array, " n"]) -> PSSMechanism:
-        p = jnp.asarray(params, dtype=jnp.float64)
-        n = self.n_params
-        if p.shape[-1:] != (n,):
-            raise ValueError(f"6-PSS ({self.param_set}-parameter set) params must have a last axis of {n}, "
-                             f"got shape {p.shape}")
+        p = self.checked_params(params)
         batch = p.shape[:-1]
         lengths = self.lengths if self.param_set == "36" else p[..., 36:42]
         tilt = p[..., 42:54] if self.param_set == "54" else self.tilt

@@ -148,11 +148,7 @@ class RUSMechanism(AbstractMechanism):
         return tuple(names + ([f"crank_zero{i}" for i in range(1, 7)] if self.param_set == "54" else []))
 
     def with_params(self, params: Float[Array, " n"]) -> RUSMechanism:
-        p = jnp.asarray(params, dtype=jnp.float64)
-        n = self.n_params
-        if p.shape[-1:] != (n,):
-            raise ValueError(f"6-RUS ({self.param_set}-parameter set) params must have a last axis of {n}, "
-                             f"got shape {p.shape}")
+        p = self.checked_params(params)
         batch = p.shape[:-1]
         zero = p[..., 48:54] if self.param_set == "54" else self.crank_zero
         return RUSMechanism(p[..., 18:36].reshape(*batch, N_LEGS, 3), p[..., :18].reshape(*batch, N_LEGS, 3),

@@ -147,9 +147,7 @@ class UPSMechanism(AbstractMechanism):
 
     def with_params(self, params: Float[Array, "42"]) -> UPSMechanism:
         """The same mechanism (v0, limits, travel kept) with the 42 parameters replaced; traceable."""
-        p = jnp.asarray(params, dtype=jnp.float64)
-        if p.shape[-1:] != (N_PARAMS_UPS,):
-            raise ValueError(f"6-UPS params must have a last axis of {N_PARAMS_UPS}, got shape {p.shape}")
+        p = self.checked_params(params)
         batch = p.shape[:-1]
         return UPSMechanism(
             p[..., 18:36].reshape(*batch, N_LEGS, 3),
