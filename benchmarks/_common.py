@@ -9,6 +9,8 @@ import platform
 import shlex
 import sys
 
+from stewart_jax._files import write_text_atomic
+
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
 
@@ -42,14 +44,11 @@ def write_results(name: str, payload: dict, markdown: str) -> None:
     """``results/NAME.json`` (payload + machine info) and ``results/NAME.md``."""
     os.makedirs(RESULTS, exist_ok=True)
     info = machine_info()
-    with open(os.path.join(RESULTS, f"{name}.json"), "w") as f:
-        json.dump({"machine": info, **payload}, f, indent=1)
-        f.write("\n")
+    write_text_atomic(os.path.join(RESULTS, f"{name}.json"), json.dumps({"machine": info, **payload}, indent=1) + "\n")
     header = (
         f"Command: `{info['command']}`  \n"
         f"Machine: {info['platform']}, {info['cpu_count']} CPUs ({info['processor']}), backend "
         f"{info['backend']}, load average {info['load_average_1min']}; python {info['python']}, "
         f"jax {info['jax']}, numpy {info['numpy']}; {info['date_utc']} UTC\n\n"
     )
-    with open(os.path.join(RESULTS, f"{name}.md"), "w") as f:
-        f.write(header + markdown.rstrip() + "\n")
+    write_text_atomic(os.path.join(RESULTS, f"{name}.md"), header + markdown.rstrip() + "\n")
