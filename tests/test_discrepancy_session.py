@@ -30,6 +30,12 @@ from stewart_jax.discrepancy._fits import _base_fits, _prepare_many, fit_candida
 
 SEED = 0
 N_POSES = 180
+RUS_CASES = (None, "cyclic_crank")
+"""The 6-RUS cases here: its batched fits at LLVM -O0 take ~70–110 s for all ten cases and ~30–50 s
+for three, so only the null case and the cyclic crank error (discovered with its period in degrees
+in 39 of the benchmark's 40 runs, unexplained in the other); the registered effects' rates on
+these sessions are the benchmark's (``test_rus.py`` names a gear-ratio error on the library's own
+simulation)."""
 
 
 def _setup(family):
@@ -46,7 +52,7 @@ def _setup(family):
     return sj.nominal_geometry(), dict(upper=a.upper, lower=a.lower, v0=a.v0), np.array([1.0] * 3 + [0.01745] * 3)
 
 
-@pytest.fixture(scope="module", params=["6-UPS", "6-PSS"])
+@pytest.fixture(scope="module", params=["6-UPS", "6-PSS", "6-RUS"])
 def runs(request):
     """Per family: ``(family, model, effects, trains, tests, [(effect, truth, test, report), …])``,
     every case diagnosed in one batch (one compilation per family)."""
@@ -54,7 +60,8 @@ def runs(request):
     mech, geo, half = _setup(family)
     model = dc.model_for(mech)
     meta, trains, tests = [], [], []
-    for c, eff in enumerate([None, *REGISTERED[family], *unregistered(family)]):
+    cases = RUS_CASES if family == "6-RUS" else (None, *REGISTERED[family], *unregistered(family))
+    for c, eff in enumerate(cases):
         ses = session(family, geo, eff, np.random.default_rng([SEED, c, 77]), half=half, n=N_POSES)
         data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(N_POSES, 0.3, SEED)
