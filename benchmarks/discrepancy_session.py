@@ -22,8 +22,8 @@ Outcomes of each run:
 - ``wrong``: a wrong effect named, or a wrong term reported as closing the gap;
 - ``missed``: not detected; ``false_alarm``: detected in the null case.
 
-    python benchmarks/discrepancy_session.py            # 20 seeds, 6-UPS and 6-PSS (~30 min on 2 cores)
-    python benchmarks/discrepancy_session.py --families 6-RUS --resume   # add the rotary hexapod
+    python benchmarks/discrepancy_session.py            # 20 seeds, the three families (~35 min on 2 cores)
+    python benchmarks/discrepancy_session.py --families 6-RUS --resume   # add one family to the runs so far
     python benchmarks/discrepancy_session.py --quick    # 2 seeds
     python benchmarks/discrepancy_session.py --resume   # go on with an interrupted run
     python benchmarks/discrepancy_session.py --report   # tabulate the runs recorded so far
@@ -227,7 +227,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2 seeds")
     ap.add_argument("--seeds", type=int, help="seeds per case (default 20)")
-    ap.add_argument("--families", default="6-UPS,6-PSS")
+    ap.add_argument("--families", default="6-UPS,6-PSS,6-RUS")
     ap.add_argument("--noise", default="1,3", help="noise levels, multiples of 0.1 µm / 0.1″")
     ap.add_argument("--poses", type=int, default=180)
     ap.add_argument("--alpha", type=float, default=0.05)
