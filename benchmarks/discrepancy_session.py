@@ -1,14 +1,18 @@
 """Hidden-effect benchmark of the model-discrepancy workflow on sessions simulated outside the
 library (``tests/_numpy_session.py``: an independent NumPy simulator; poses in random order over
 about two hours, approach directions from the moves, a drifting temperature), for the 6-UPS
-(the Rubin camera hexapod preset) and the 6-PSS (Wang et al. 2018, "Improved cuckoo calibration
+(the Rubin camera hexapod preset), the 6-PSS (Wang et al. 2018, "Improved cuckoo calibration
 method of space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering
-47(5): its "actual" mechanism, diagnosed from the nominal one).
+47(5): its "actual" mechanism, diagnosed from the nominal one) and the 6-RUS rotary hexapod
+(Eisele 2019, "Inverse Kinematics of a Stewart Platform": the ``rotary_stewart`` preset, its
+±10 mm / ±5° travel).
 
 Per family and noise level (the default σ = 0.1 µm / 0.1″ and 3×; the model is told σ), per
-seed: every registered effect, three effects the registry lacks (a cyclic screw error of 1 µm
-at a 1 mm lead, a quadratic reading error of 0.5–1 µm at 5 mm, a temperature-dependent scale of
-one strut) and the null case. Outcomes of each run:
+seed: every registered effect, three effects the registry lacks (struts: a cyclic screw error of
+1 µm at a 1 mm lead, a quadratic reading error of 0.5–1 µm at 5 mm, a temperature-dependent
+scale of one strut; cranks: a cyclic error of 20 µrad with a 4° period, a quadratic reading error
+of 10–20 µrad at 0.25 rad, a temperature-dependent gain of one crank) and the null case.
+Outcomes of each run:
 
 - ``named``: the true effect named (or listed as indistinguishable from the named one);
 - ``discovered``: no candidate named, and the open search's first term has the right factor and
@@ -18,7 +22,8 @@ one strut) and the null case. Outcomes of each run:
 - ``wrong``: a wrong effect named, or a wrong term reported as closing the gap;
 - ``missed``: not detected; ``false_alarm``: detected in the null case.
 
-    python benchmarks/discrepancy_session.py            # 20 seeds (~30 min on 2 cores)
+    python benchmarks/discrepancy_session.py            # 20 seeds, the three families (~35 min on 2 cores)
+    python benchmarks/discrepancy_session.py --families 6-RUS --resume   # add one family to the runs so far
     python benchmarks/discrepancy_session.py --quick    # 2 seeds
     python benchmarks/discrepancy_session.py --resume   # go on with an interrupted run
     python benchmarks/discrepancy_session.py --report   # tabulate the runs recorded so far
@@ -45,7 +50,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 sys.path.insert(0, HERE)
 
 from _common import write_results  # noqa: E402
-from _numpy_session import REGISTERED, UNREGISTERED, session  # noqa: E402
+from _numpy_session import REGISTERED, session, unregistered  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
@@ -61,19 +66,27 @@ def setup(family: str):
         mech = sj.mechanism.preset("rubin_camera")
         geo = dict(base=mech.base, platform=mech.platform, v0=mech.v0, lengths0=mech.lengths0)
         return mech, geo, sj.calibration.reachable_travel(mech)
+    if family == "6-RUS":
+        mech = sj.mechanism.preset("rotary_stewart")
+        geo = dict(base=mech.base, platform=mech.platform, v0=mech.v0, crank_lengths=mech.crank_lengths,
+                   rod_lengths=mech.rod_lengths, azimuth=mech.azimuth, crank_zero=mech.crank_zero)
+        return mech, geo, sj.calibration.reachable_travel(mech)
     mech = sj.nominal_geometry()
     a = sj.actual_geometry()
     return mech, dict(upper=a.upper, lower=a.lower, v0=a.v0), np.array([1.0] * 3 + [np.deg2rad(1.0)] * 3)
 
 
 def right_term(effect: str, truth: dict, term: dict) -> bool:
-    """The discovered term has the hidden effect's factor and form."""
-    if effect == "cyclic_screw":
-        return (term["factor"] == "reading" and term["form"] == "periodic"
-                and abs(term["period"] / truth["period_mm"] - 1) < 0.05)
+    """The discovered term has the hidden effect's factor and form (a period in the unit the
+    term reports it in: mm for a screw, degrees for a crank)."""
+    if effect in ("cyclic_screw", "cyclic_crank"):
+        want = truth["period_mm"] if effect == "cyclic_screw" else truth["period_deg"]
+        unit = "mm" if effect == "cyclic_screw" else "deg"
+        return (term["factor"] == "reading" and term["form"] == "periodic" and term["period_unit"] == unit
+                and abs(term["period"] / want - 1) < 0.05)
     if effect == "quadratic_reading":
         return term["factor"] == "reading" and term["form"] == "polynomial" and term["degree"] == 2
-    if effect == "strut_thermal_scale":
+    if effect in ("strut_thermal_scale", "crank_thermal_gain"):
         return (term["factor"] == "reading" and term["times"] == "temperature"
                 and term["leg"] in (None, truth["leg"] + 1))
     return False
@@ -95,7 +108,7 @@ def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
     """The rows of one seed: every case of ``family`` at ``noise``, diagnosed in one batch."""
     mech, geo, half = setup(family)
     model = dc.model_for(mech, 0.1 * noise, 0.1 * noise)
-    cases = [None, *REGISTERED[family], *UNREGISTERED]
+    cases = [None, *REGISTERED[family], *unregistered(family)]
     trains, tests, meta = [], [], []
     for c, eff in enumerate(cases):
         rng = np.random.default_rng([s, c, int(noise * 10), len(family)])
@@ -108,6 +121,7 @@ def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
         meta.append((s, eff, ses.truth))
     effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
     reps = diagnose_many(model, effects, trains, tests, alpha=alpha)  # one batch per seed: one compile
+    u = "um" if model.report_unit == "µm" else "urad"  # the gaps' unit: µm for struts, µrad for cranks
     rows = []
     for (s, eff, truth), rep in zip(meta, reps, strict=True):
         rows.append({
@@ -115,11 +129,13 @@ def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
             "outcome": outcome(eff, truth, rep), "detected": rep.detected, "named": rep.named_effect,
             "indistinguishable_from": rep.indistinguishable_from, "explained": rep.explained,
             "partial": [{"effect": p["effect"], "gap_share": p["gap_share"]} for p in rep.partial],
-            "discovered": [{k: t[k] for k in ("leg", "factor", "form", "period", "degree", "times", "gap_after")}
+            "discovered": [{k: t[k] for k in ("leg", "factor", "form", "period", "period_unit", "degree", "times",
+                                              "gap_after")}
                            for t in rep.discovered],
-            "gap_before_um": rep.gap_before, "gap_after_um": rep.gap_after, "noise_floor_um": rep.noise_floor,
+            f"gap_before_{u}": rep.gap_before, f"gap_after_{u}": rep.gap_after, f"noise_floor_{u}": rep.noise_floor,
             "truth_leg": truth.get("leg"),
             "truth_period_mm": truth.get("period_mm"),
+            "truth_period_deg": truth.get("period_deg"),
             "named_p_heldout": next((c.heldout_p for c in rep.ranking if c.effect == rep.named_effect), None),
             "notes": rep.notes,
         })
@@ -151,6 +167,12 @@ def run(family: str, noise: float, seeds, alpha: float, n_poses: int, log: str |
     return rows
 
 
+def _over_floor(r: dict, which: str) -> float:
+    """A row's held-out gap (``which``: ``before``, ``after``) over its noise floor (µm or µrad)."""
+    u = "um" if "noise_floor_um" in r else "urad"
+    return r[f"gap_{which}_{u}"] / r[f"noise_floor_{u}"]
+
+
 def table(rows) -> dict:
     out = {}
     for fam in sorted({r["family"] for r in rows}):
@@ -160,10 +182,8 @@ def table(rows) -> dict:
                 if sub:
                     out[f"{fam} {noise:g}x {eff}"] = {o: sum(r["outcome"] == o for r in sub) for o in OUTCOMES} | {
                         "runs": len(sub),
-                        "median_gap_before_over_floor": float(np.median([r["gap_before_um"] / r["noise_floor_um"]
-                                                                         for r in sub])),
-                        "median_gap_after_over_floor": float(np.median([r["gap_after_um"] / r["noise_floor_um"]
-                                                                        for r in sub])),
+                        "median_gap_before_over_floor": float(np.median([_over_floor(r, "before") for r in sub])),
+                        "median_gap_after_over_floor": float(np.median([_over_floor(r, "after") for r in sub])),
                     }
     return out
 
@@ -207,7 +227,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2 seeds")
     ap.add_argument("--seeds", type=int, help="seeds per case (default 20)")
-    ap.add_argument("--families", default="6-UPS,6-PSS")
+    ap.add_argument("--families", default="6-UPS,6-PSS,6-RUS")
     ap.add_argument("--noise", default="1,3", help="noise levels, multiples of 0.1 µm / 0.1″")
     ap.add_argument("--poses", type=int, default=180)
     ap.add_argument("--alpha", type=float, default=0.05)

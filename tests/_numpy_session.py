@@ -18,6 +18,18 @@ registers (its candidate list) and effects it does not:
 - ``strut_thermal_scale``: the encoder scale of one actuator only changes with temperature,
   reading = true change · ``(1 + κ (T − 20 °C))``.
 
+The same three in crank form for the rotary hexapod (6-RUS, readings in rad): ``cyclic_crank``, a
+gear-tooth / encoder cyclic error of each crank reading ``A·sin(2π q / P + φ_i)`` (``A`` = 20 µrad,
+``P`` = 4°, the tooth pitch of a 90-tooth gear); ``quadratic_reading``, ``c_i q²`` (10–20 µrad at
+0.25 rad); ``crank_thermal_gain``, one crank's reading gain changing with temperature.
+
+The 6-RUS leg (a crank of length ``a`` turning about a horizontal axis at the motor ``b`` in the
+vertical plane along ``u = (cos β, sin β, 0)``; a rod of length ``s`` to the platform joint): with
+``l`` the platform joint minus the motor, ``|l − a (cos α u + sin α e_z)| = s`` is
+``E cos α + F sin α = G`` (``E = u·l``, ``F = l_z``, ``G = (|l|² + a² − s²) / 2a``), i.e.
+``√(E² + F²) cos(α − atan2(F, E)) = G``; the crank end below the motor-to-joint line is
+``α = atan2(F, E) − arccos(G / √(E² + F²))``.
+
 Rotations: ``Rz(ψ)·Ry(θ)·Rx(φ)`` (Wang et al. 2018, "Improved cuckoo calibration method of
 space telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5),
 eq. 1), angles in rad; lengths in mm.
@@ -34,11 +46,23 @@ ARCSEC = np.pi / (180 * 3600)
 T_REF = 20.0
 
 REGISTERED = {
+    "6-RUS": ("crank_offset", "gear_ratio", "backlash", "thermal_expansion", "drift", "tracker_misalignment"),
     "6-UPS": ("strut_scale", "thermal_expansion", "gravity_sag", "backlash", "drift", "tracker_misalignment"),
     "6-PSS": ("zero_offset", "stroke_scale", "actuator_tilt", "backlash", "thermal_expansion", "drift",
               "tracker_misalignment"),
 }
 UNREGISTERED = ("cyclic_screw", "quadratic_reading", "strut_thermal_scale")
+"""The strut families' effects that the registry lacks."""
+UNREGISTERED_ROTARY = ("cyclic_crank", "quadratic_reading", "crank_thermal_gain")
+"""The same three ideas in crank form (6-RUS)."""
+URAD = 1e-6
+CRANK_PERIOD_DEG = 4.0
+"""The cyclic crank error's period: the tooth pitch of a 90-tooth gear (deg of crank angle)."""
+
+
+def unregistered(family: str) -> tuple[str, ...]:
+    """The hidden effects of ``family`` that its registry lacks."""
+    return UNREGISTERED_ROTARY if family == "6-RUS" else UNREGISTERED
 
 
 def rotation(a):
@@ -60,9 +84,10 @@ def angles(r):
 
 @dataclasses.dataclass(frozen=True)
 class Session:
-    """Measured columns (``strokes`` = readings, mm; ``poses`` measured, mm and rad;
-    ``directions`` ±1; ``temperature`` °C; ``time`` s) and the truth (``effect``, its
-    parameters ``truth``, ``period_mm`` of a cyclic error, ``leg`` of a one-strut effect)."""
+    """Measured columns (``strokes`` = readings, mm, or rad for cranks; ``poses`` measured, mm
+    and rad; ``directions`` ±1; ``temperature`` °C; ``time`` s) and the truth (``effect``, its
+    parameters ``truth``, ``period_mm`` or ``period_deg`` of a cyclic error, ``leg`` of a
+    one-actuator effect)."""
 
     strokes: np.ndarray
     poses: np.ndarray
@@ -101,6 +126,10 @@ def _strut_statics(rot, d, v0, platform, base):
 def _draw(rng, effect, family, n_legs=6):
     """True parameters of ``effect`` (physical units: mm, 1/K, rad, mm/s, dimensionless)."""
     sgn = rng.choice([-1.0, 1.0], n_legs)
+    if family == "6-RUS":
+        p = _draw_rotary(rng, effect, sgn, n_legs)
+        if p is not None:
+            return p
     if effect in ("strut_scale", "stroke_scale"):
         return {"k": sgn * rng.uniform(300e-6, 600e-6, n_legs)}
     if effect == "thermal_expansion":
@@ -130,13 +159,57 @@ def _draw(rng, effect, family, n_legs=6):
     raise ValueError(f"unknown effect {effect!r}")
 
 
+def _draw_rotary(rng, effect, sgn, n_legs):
+    """The crank effects (rad, rad/s, 1/K, dimensionless), or ``None`` for the shared ones.
+
+    Magnitudes: the pose noise (0.1 µm, 0.1″) reaches a 50 mm crank's reading as ~2.2 µrad, so
+    the effects are a few to ten times that, as the strut families' are to theirs — a homing
+    error of 50–100 µrad, a gain error of 0.3–0.6 % (a servo's pulse-width-to-angle gain, a gear
+    ratio off by a tooth in 200: the joints, cranks and rods absorb 99 % of a gain error over
+    this ±0.3 rad of crank travel, so 500 ppm leaves 0.5 µrad), gearbox lost motion of 20–40 µrad
+    (4–8″: a precision gearhead), an encoder zero drift of 10–20 µrad/h, rods whose expansion
+    differs from the nominal by 2–4 ppm/K, an encoder cyclic error of 20 µrad (4″), and one
+    crank's reading gain drifting by 40–60 ppm/K."""
+    if effect == "crank_offset":
+        return {"c": sgn * rng.uniform(50, 100, n_legs) * URAD}
+    if effect == "gear_ratio":
+        return {"k": sgn * rng.uniform(3e-3, 6e-3, n_legs)}
+    if effect == "backlash":
+        return {"b": rng.uniform(20, 40, n_legs) * URAD}
+    if effect == "drift":
+        return {"rate": sgn * rng.uniform(10, 20, n_legs) * URAD / 3600}
+    if effect == "thermal_expansion":
+        return {"alpha": sgn * rng.uniform(2e-6, 4e-6, n_legs)}
+    if effect == "cyclic_crank":
+        return {"amp": 20 * URAD, "period": np.deg2rad(CRANK_PERIOD_DEG), "phase": rng.uniform(0, 2 * np.pi, n_legs)}
+    if effect == "quadratic_reading":
+        return {"c": sgn * rng.uniform(10, 20, n_legs) * URAD / 0.25**2}
+    if effect == "crank_thermal_gain":
+        return {"leg": int(rng.integers(n_legs)), "kappa": float(rng.choice([-1, 1]) * rng.uniform(40e-6, 60e-6))}
+    return None
+
+
+def crank_angles(leg, azimuth, crank, rod):
+    """Absolute crank angles (rad) of legs whose platform joint minus motor is ``leg`` (``(..., 6, 3)``,
+    mm), from the closed form of the module docstring."""
+    e = np.cos(azimuth) * leg[..., 0] + np.sin(azimuth) * leg[..., 1]
+    f = leg[..., 2]
+    g = (np.sum(leg**2, -1) + crank**2 - rod**2) / (2 * crank)
+    rho = np.hypot(e, f)
+    if np.any(np.abs(g) > rho):
+        raise ValueError("a rod does not reach its crank's circle")
+    return np.arctan2(f, e) - np.arccos(g / rho)
+
+
 def _reading_error(effect, p, q, temp):
     """Reading-side errors: what the encoder shows minus the true length change ``q``."""
     if effect == "cyclic_screw":
         return p["amp"] * np.sin(2 * np.pi * q / p["lead"] + p["phase"])
+    if effect == "cyclic_crank":
+        return p["amp"] * np.sin(2 * np.pi * q / p["period"] + p["phase"])
     if effect == "quadratic_reading":
         return p["c"] * q**2
-    if effect == "strut_thermal_scale":
+    if effect in ("strut_thermal_scale", "crank_thermal_gain"):
         e = np.zeros_like(q)
         e[:, p["leg"]] = q[:, p["leg"]] * p["kappa"] * (temp - T_REF)
         return e
@@ -147,14 +220,20 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
             n: int = 180, sigma_um: float = 0.1, sigma_arcsec: float = 0.1,
             perturb_um: float = 30.0) -> Session:
     """Simulate one session of ``family`` (``"6-UPS"``: ``geometry`` has ``base``, ``platform``,
-    ``v0``, ``lengths0``; ``"6-PSS"``: ``upper``, ``lower``, ``v0``, vertical sliders) with
-    ``effect`` hidden; poses uniform in ``±half`` (mm, rad)."""
+    ``v0``, ``lengths0``; ``"6-PSS"``: ``upper``, ``lower``, ``v0``, vertical sliders;
+    ``"6-RUS"``: ``base`` (motors), ``platform``, ``v0``, ``crank_lengths``, ``rod_lengths``,
+    ``azimuth`` (rad), ``crank_zero`` (rad)) with ``effect`` hidden; poses uniform in ``±half``
+    (mm, rad). The perturbation moves joints and lengths by ``perturb_um`` and a crank zero by
+    ``perturb_um`` of arc at the crank's end; azimuths and ``v0`` stay nominal (not calibrated)."""
     g = {k: np.array(v, dtype=float) for k, v in geometry.items()}
     for k in ("base", "platform", "upper", "lower"):
         if k in g:
             g[k] = g[k] + perturb_um * UM * rng.standard_normal(g[k].shape)
-    if "lengths0" in g:
-        g["lengths0"] = g["lengths0"] + perturb_um * UM * rng.standard_normal(6)
+    for k in ("lengths0", "crank_lengths", "rod_lengths"):
+        if k in g:
+            g[k] = g[k] + perturb_um * UM * rng.standard_normal(6)
+    if "crank_zero" in g:
+        g["crank_zero"] = g["crank_zero"] + perturb_um * UM / g["crank_lengths"] * rng.standard_normal(6)
     p = _draw(rng, effect, family)
     true = rng.uniform(-half, half, (n, 6))
     t, temp = _conditions(rng, n)
@@ -168,6 +247,10 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
         if effect == "thermal_expansion":
             length = length / (1 + p["alpha"] * dt[:, None])  # the strut is longer: less extension needed
         q = length - g["lengths0"]
+    elif family == "6-RUS":
+        rod = g["rod_lengths"] * (1 + p["alpha"] * dt[:, None]) if effect == "thermal_expansion" else g["rod_lengths"]
+        joint = np.einsum("mjk,ik->mij", rot, g["platform"]) + true[:, None, :3] + g["v0"]
+        q = crank_angles(joint - g["base"], g["azimuth"], g["crank_lengths"], rod) - g["crank_zero"]
     else:
         w = np.einsum("mjk,ik->mij", rot, g["upper"]) + true[:, None, :3] + g["v0"] - g["lower"]
         rod = np.linalg.norm(g["upper"] + g["v0"] - g["lower"], axis=-1)
@@ -180,14 +263,14 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
         wn = np.einsum("mij,ij->mi", w, axis)
         q = wn - np.sqrt(rod**2 - np.sum(w**2, -1) + wn**2)
     reading = q.copy()
-    if effect in ("strut_scale", "stroke_scale"):
-        reading = q / (1 + p["k"])
+    if effect in ("strut_scale", "stroke_scale", "gear_ratio"):
+        reading = q / (1 + p["k"])  # the actuator moves (1 + k) × what its encoder reads
     directions = _directions(q)
     if effect == "backlash":
         reading = reading + 0.5 * p["b"] * directions
     if effect == "drift":
         reading = reading + p["rate"] * t[:, None]
-    if effect == "zero_offset":
+    if effect in ("zero_offset", "crank_offset"):
         reading = reading + p["c"]
     reading = reading + _reading_error(effect, p, q, temp)
     measured = true.copy()
@@ -199,4 +282,6 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
     measured[:, 3:] += sigma_arcsec * ARCSEC * rng.standard_normal((n, 3))
     if effect == "cyclic_screw":
         p = {**p, "period_mm": p["lead"]}
+    if effect == "cyclic_crank":
+        p = {**p, "period_deg": CRANK_PERIOD_DEG}
     return Session(reading, measured, directions, temp, t, effect, p)

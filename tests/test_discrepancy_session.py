@@ -1,10 +1,10 @@
 """The discrepancy workflow on sessions simulated outside the library (``_numpy_session.py``:
 random pose order over two hours, approach directions from the moves, a drifting temperature):
 registered effects are named (or reported absorbed by the geometry), effects the registry lacks
-are never named — a cyclic screw error is discovered with its period and amplitude — and
-nothing is found in the null case. One seed per case and family here, all cases of a family in
-one batch; the rates over 20 seeds at two noise levels are in
-``benchmarks/discrepancy_session.py``.
+are never named — a cyclic screw error (a cyclic crank error on the rotary hexapod) is
+discovered with its period and amplitude — and nothing is found in the null case. One seed per
+case and family here, all cases of a family in one batch; the rates over 20 seeds at two noise
+levels are in ``benchmarks/discrepancy_session.py``.
 
 These 180-pose batches are also where jaxlib 0.10's batched LAPACK kernels deadlocked XLA's CPU
 thread pool (see ``stewart_jax/_linalg.py``): the last test checks that the workflow's compiled
@@ -16,7 +16,7 @@ import json
 
 import numpy as np
 import pytest
-from _numpy_session import REGISTERED, UNREGISTERED, session
+from _numpy_session import REGISTERED, crank_angles, rotation, session, unregistered
 from test_linalg import batched_lapack_calls
 
 import stewart_jax as sj
@@ -30,6 +30,12 @@ from stewart_jax.discrepancy._fits import _base_fits, _prepare_many, fit_candida
 
 SEED = 0
 N_POSES = 180
+RUS_CASES = (None, "cyclic_crank")
+"""The 6-RUS cases here: its batched fits at LLVM -O0 take ~70–110 s for all ten cases and ~30–50 s
+for three, so only the null case and the cyclic crank error (discovered with its period in degrees
+in 39 of the benchmark's 40 runs, unexplained in the other); the registered effects' rates on
+these sessions are the benchmark's (``test_rus.py`` names a gear-ratio error on the library's own
+simulation)."""
 
 
 def _setup(family):
@@ -37,11 +43,16 @@ def _setup(family):
         mech = sj.mechanism.preset("rubin_camera")
         geo = dict(base=mech.base, platform=mech.platform, v0=mech.v0, lengths0=mech.lengths0)
         return mech, geo, sj.calibration.reachable_travel(mech)
+    if family == "6-RUS":
+        mech = sj.mechanism.preset("rotary_stewart")
+        geo = dict(base=mech.base, platform=mech.platform, v0=mech.v0, crank_lengths=mech.crank_lengths,
+                   rod_lengths=mech.rod_lengths, azimuth=mech.azimuth, crank_zero=mech.crank_zero)
+        return mech, geo, sj.calibration.reachable_travel(mech)
     a = sj.actual_geometry()
     return sj.nominal_geometry(), dict(upper=a.upper, lower=a.lower, v0=a.v0), np.array([1.0] * 3 + [0.01745] * 3)
 
 
-@pytest.fixture(scope="module", params=["6-UPS", "6-PSS"])
+@pytest.fixture(scope="module", params=["6-UPS", "6-PSS", "6-RUS"])
 def runs(request):
     """Per family: ``(family, model, effects, trains, tests, [(effect, truth, test, report), …])``,
     every case diagnosed in one batch (one compilation per family)."""
@@ -49,7 +60,8 @@ def runs(request):
     mech, geo, half = _setup(family)
     model = dc.model_for(mech)
     meta, trains, tests = [], [], []
-    for c, eff in enumerate([None, *REGISTERED[family], *UNREGISTERED]):
+    cases = RUS_CASES if family == "6-RUS" else (None, *REGISTERED[family], *unregistered(family))
+    for c, eff in enumerate(cases):
         ses = session(family, geo, eff, np.random.default_rng([SEED, c, 77]), half=half, n=N_POSES)
         data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(N_POSES, 0.3, SEED)
@@ -60,6 +72,21 @@ def runs(request):
     reps = diagnose_many(model, effects, trains, tests)
     rows = [(eff, truth, te, r) for (eff, truth), te, r in zip(meta, tests, reps, strict=True)]
     return family, model, effects, trains, tests, rows
+
+
+def test_the_simulators_crank_angles_are_the_mechanisms():
+    """The simulator's closed-form crank angle (its own derivation) against the library's 6-RUS
+    inverse kinematics, over the travel box the sessions use."""
+    mech = sj.mechanism.preset("rotary_stewart")
+    half = sj.calibration.reachable_travel(mech)
+    poses = np.random.default_rng(5).uniform(-half, half, (400, 6))
+    joints = (np.einsum("mjk,ik->mij", rotation(poses[:, 3:]), np.asarray(mech.platform)) + poses[:, None, :3]
+              + np.asarray(mech.v0))
+    alpha = crank_angles(joints - np.asarray(mech.base), np.asarray(mech.azimuth), np.asarray(mech.crank_lengths),
+                         np.asarray(mech.rod_lengths))
+    q = np.asarray(mech.solve_inverse_kinematics(poses).strokes)
+    assert np.ptp(q) > 0.5  # the cranks sweep ~30° of the box, so the branch is tested away from zero
+    np.testing.assert_allclose(alpha - np.asarray(mech.crank_zero), q, rtol=0, atol=1e-12)
 
 
 def test_no_wrong_name_and_registered_effects_are_named(runs):
@@ -87,9 +114,9 @@ def test_null_case_raises_no_alarm(runs):
 
 
 def test_unregistered_effects_are_never_named_and_the_report_says_so(runs):
-    *_, rows = runs
+    family, *_, rows = runs
     for eff, _, _, r in rows:
-        if eff not in UNREGISTERED or not r.detected:
+        if eff not in unregistered(family) or not r.detected:
             continue
         assert r.named_effect is None
         d = json.loads(json.dumps(r.to_dict()))
@@ -100,29 +127,41 @@ def test_unregistered_effects_are_never_named_and_the_report_says_so(runs):
             assert p["heldout_p"] < r.alpha
 
 
+def _cyclic(family):
+    """The cyclic error's name, its period's key in the truth and unit in the report, and the
+    report unit (µm per mm of a screw, µrad per rad of a crank)."""
+    if family == "6-RUS":
+        return "cyclic_crank", "period_deg", "deg", "µrad", 1e6
+    return "cyclic_screw", "period_mm", "mm", "µm", 1e3
+
+
 def test_cyclic_screw_error_is_discovered_with_its_period_and_amplitude(runs):
-    *_, rows = runs
-    _, truth, _, r = next(x for x in rows if x[0] == "cyclic_screw")
+    family, *_, rows = runs
+    name, period_key, period_unit, unit, per_library_unit = _cyclic(family)
+    _, truth, _, r = next(x for x in rows if x[0] == name)
     assert r.detected and r.named_effect is None and r.discovered
     t = r.discovered[0]
-    assert (t["factor"], t["form"], t["leg"]) == ("reading", "periodic", None)
-    assert abs(t["period"] / truth["period_mm"] - 1) < 0.05
+    assert (t["factor"], t["form"], t["leg"], t["period_unit"]) == ("reading", "periodic", None, period_unit)
+    assert abs(t["period"] / truth[period_key] - 1) < 0.05
     # sin(2πq/P + φ) = cos φ · sin(2πq/P) + sin φ · cos(2πq/P): compare with the hidden phases
+    # (for a crank the simulator's q counts from the true zero, the library's from its fitted
+    # one: they differ by ~1 µrad, a phase shift of ~1e-4 rad)
     c = {(x["leg"], x["basis"]): x for x in t["coefficients"]}
-    amp_um = truth["amp"] * 1e3
+    amp = truth["amp"] * per_library_unit
     for leg in range(1, 7):
         for basis, want in (("sin", np.cos(truth["phase"][leg - 1])), ("cos", np.sin(truth["phase"][leg - 1]))):
             x = c[(leg, basis)]
-            assert x["unit"] == "µm"
-            assert abs(x["value"] - amp_um * want) < 5 * x["std"] + 0.05 * amp_um
+            assert x["unit"] == unit
+            assert abs(x["value"] - amp * want) < 5 * x["std"] + 0.05 * amp
     # the gap closes towards the noise floor (the term passes the held-out test in 39 of the
     # benchmark's 40 runs at this noise; the RMS itself is compared with its sampling spread)
     assert r.gap_after < 1.25 * r.noise_floor_predictive < r.gap_before
 
 
 def test_discovered_model_predicts_as_the_search_did_and_round_trips(runs, tmp_path):
-    *_, rows = runs
-    _, _, test, r = next(x for x in rows if x[0] == "cyclic_screw")
+    family, *_, rows = runs
+    name, *_, per_library_unit = _cyclic(family)
+    _, truth, test, r = next(x for x in rows if x[0] == name)
     if not r.explained:
         pytest.skip("this seed's discovered term did not pass the held-out test (1 of the benchmark's 40 runs)")
     # the augmented model (nonlinear prediction) reproduces the linearised search's held-out gap
@@ -131,10 +170,11 @@ def test_discovered_model_predicts_as_the_search_did_and_round_trips(runs, tmp_p
     dc.save_fitted_model(r.fitted, path)
     back = dc.load_fitted_model(path)
     np.testing.assert_allclose(np.asarray(back.commanded(test)), np.asarray(r.fitted.commanded(test)), atol=1e-12)
-    # the commanded readings move by the discovered cyclic error (a reading error: command it)
+    # the commanded readings move by the discovered cyclic error (a reading error: command it):
+    # RMS amplitude/√2 = 0.71 of the amplitude
     base_cmd = np.asarray(r.base_fitted.commanded(test))
-    delta_um = (np.asarray(r.fitted.commanded(test)) - base_cmd) * 1e3
-    assert 0.5 < np.sqrt(np.mean(delta_um**2)) < 1.2
+    delta = (np.asarray(r.fitted.commanded(test)) - base_cmd) / truth["amp"]
+    assert 0.5 < np.sqrt(np.mean(delta**2)) < 1.2
 
 
 def test_strut_hexapod_absorbed_effect_names_the_absorbing_parameters(runs):

@@ -7,9 +7,10 @@ dynamical systems from data", JOSS 5(49)).
 When no registered candidate closes the held-out gap, the residual of each actuator is
 regressed on terms of the factors the data carry:
 
-- the actuator's own reading ``q``: polynomials ``q^d`` (``d`` = 1, 2, 3) and Fourier pairs
-  ``sin(2π q / P), cos(2π q / P)`` over a geometric grid of periods ``P`` (cyclic screw and
-  encoder errors), refined around the best one;
+- the actuator's own reading ``q`` (mm for a strut or slider, degrees for a crank angle:
+  :func:`reading_factor`): polynomials ``q^d`` (``d`` = 1, 2, 3) and Fourier pairs
+  ``sin(2π q / P), cos(2π q / P)`` over a geometric grid of periods ``P`` (cyclic screw,
+  gear-tooth and encoder errors), refined around the best one;
 - the approach direction: a step ``dir / 2`` (lost motion);
 - temperature ``T − 20 °C`` and its product with the reading (a temperature-dependent scale);
 - time (hours, degree 1 and 2) and the pose components (degree 2).
@@ -53,6 +54,10 @@ from ._subspace import SINE_TOL, basis
 
 T_REF_C = 20.0
 HOUR_S = 3600.0
+READING_FACTOR_UNITS = {"mm": (1.0, "mm"), "rad": (180 / math.pi, "deg")}
+"""Per mechanism ``reading_unit``: the scale from the library's reading to the ``reading``
+factor's unit, and that unit (a crank angle in degrees, as the measurement CSV and the pose
+angles give it)."""
 MAX_TERMS = 4
 """Most groups the forward selection adds."""
 PERIOD_RATIO = 1.005
@@ -80,9 +85,19 @@ class TermSpec(NamedTuple):
     leg: int | None
 
 
+def reading_factor(model: Any) -> tuple[float, str]:
+    """``(scale, unit)``: the ``reading`` factor is ``scale`` × the model's reading (library
+    unit, the mechanism's ``reading_unit``), in ``unit`` (mm; degrees for a crank angle)."""
+    unit = getattr(getattr(model, "mechanism", None), "reading_unit", "mm")
+    if unit not in READING_FACTOR_UNITS:
+        raise ValueError(f"the open term search has no factor unit for readings in {unit!r}")
+    return READING_FACTOR_UNITS[unit]
+
+
 def _factor_x(spec: TermSpec, reading, data, xp=np):
-    """``(m, k)`` values of the term's factor: ``reading`` in mm, poses in mm and degrees,
-    temperature minus 20 °C, time in hours."""
+    """``(m, k)`` values of the term's factor: ``reading`` in the factor's unit (the caller
+    scales it: :func:`reading_factor`), poses in mm and degrees, temperature minus 20 °C, time
+    in hours."""
     m, k = reading.shape
     if spec.factor == "reading":
         return reading
@@ -121,12 +136,13 @@ def _legs(spec: TermSpec, k: int) -> list[int]:
     return list(range(k)) if spec.leg is None else [spec.leg]
 
 
-def _unit(spec: TermSpec, report_unit: str) -> str:
-    """Unit of a term's coefficient (the residual's report unit per unit of the basis)."""
+def _unit(spec: TermSpec, report_unit: str, reading_unit: str = "mm") -> str:
+    """Unit of a term's coefficient (the residual's report unit per unit of the basis;
+    ``reading_unit``: the reading factor's)."""
     if spec.form == "periodic" or spec.form == "step":
         per = ""
     else:
-        u = {"reading": "mm", "temperature": "K", "time": "h", "dir": ""}.get(spec.factor)
+        u = {"reading": reading_unit, "temperature": "K", "time": "h", "dir": ""}.get(spec.factor)
         u = u if u is not None else next(p[3] for p in _POSE if p[0] == spec.factor)
         per = u if spec.degree == 1 else f"{u}^{spec.degree}"
     if spec.times == "temperature":
@@ -134,13 +150,14 @@ def _unit(spec: TermSpec, report_unit: str) -> str:
     return f"{report_unit}/{per}" if per else report_unit
 
 
-def describe(spec: TermSpec) -> str:
-    """The term in words."""
+def describe(spec: TermSpec, reading_unit: str = "mm") -> str:
+    """The term in words (``reading_unit``: the reading factor's, :func:`reading_factor`)."""
     who = "every actuator" if spec.leg is None else f"actuator {spec.leg + 1}"
     what = {"reading": "its reading", "dir": "its approach direction"}.get(spec.factor, spec.factor)
     if spec.form == "periodic":
-        unit = "mm" if spec.factor == "reading" else ""
-        s = f"a periodic error in {what} with period {spec.period:.4g} {unit}".rstrip()
+        unit = reading_unit if spec.factor == "reading" else ""
+        unit = "°" if unit == "deg" else f" {unit}"
+        s = f"a periodic error in {what} with period {spec.period:.4g}{unit}".rstrip()
     elif spec.form == "step":
         s = f"a step with {what} (lost motion)"
     else:
@@ -162,12 +179,13 @@ class DiscoveredTerms(NamedTuple):
     def n_params(self) -> int:
         return sum(_n_coef(s) * len(_legs(s, self.k)) for s in self.specs)
 
-    def offsets(self, theta, reading, data):
-        """``(m, k)`` reading offsets of the terms at the readings ``reading`` (mm)."""
+    def offsets(self, theta, reading, data, scale: float = 1.0):
+        """``(m, k)`` reading offsets of the terms at the readings ``reading`` (library unit;
+        ``scale`` × ``reading`` is the factor's unit, :func:`reading_factor`)."""
         out = jnp.zeros(reading.shape)
         off = 0
         for s in self.specs:
-            cols = _factor_values(s, reading, data)
+            cols = _factor_values(s, reading * scale, data)
             for j in _legs(s, self.k):
                 c = _n_coef(s)
                 out = out.at[:, j].add(cols[:, j, :] @ theta[off : off + c])
@@ -179,17 +197,18 @@ class DiscoveredTerms(NamedTuple):
         factor is the model's prediction before the terms)."""
         requires = {"dir": ("directions",), "temperature": ("temperature",), "time": ("time",)}
         req = sorted({c for s in self.specs for c in requires.get(s.factor, ()) + requires.get(s.times, ())})
+        scale, unit = reading_factor(model)
 
         def apply(theta, data, state):
             reading = model.finish(state, data)
-            return state._replace(offset=state.offset + self.offsets(theta, reading, data))
+            return state._replace(offset=state.offset + self.offsets(theta, reading, data, scale))
 
         apply.terms = self  # what save_fitted_model writes, so that the model file can rebuild the effect
         n = self.n_params
         return Effect(
             name="discovered", model=model.name, n_params=n, apply=apply, scale=(model.report_factor**-1,) * n,
             unit=model.report_unit, report_factor=(model.report_factor,) * n, requires=tuple(req),
-            acts_on="mechanism", doc="; ".join(describe(s) for s in self.specs),
+            acts_on="mechanism", doc="; ".join(describe(s, unit) for s in self.specs),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -202,7 +221,7 @@ class DiscoveredTerms(NamedTuple):
 
 def supports_discovery(model: Any, data: Any) -> bool:
     """The open search applies to models whose observations are actuator readings with an
-    additive offset in their state (the 6-PSS and 6-UPS models)."""
+    additive offset in their state (the 6-PSS, 6-UPS and 6-RUS models)."""
     if not isinstance(data, CalibrationData):
         return False
     return "offset" in getattr(type(model.initial_state(model.base_initial, data, False)), "_fields", ())
@@ -339,6 +358,7 @@ Amer. Statist. Assoc. 90, §3.2)."""
 
 def challenge(
     *,
+    model: Any,
     train: Any,
     reading_tr: np.ndarray,
     white_tr: np.ndarray,
@@ -357,6 +377,7 @@ def challenge(
     NOTE: a test of "``g`` adds to ``a``" is not used: on strong signals (gaps of 10× the noise
     and more) it rejected correct candidates that pass the held-out test, on the training
     residual's second-order misfit."""
+    reading_tr = reading_tr * reading_factor(model)[0]
     k = reading_tr.shape[1]
     fams = _library(reading_tr, train, k)
     n_tr = white_tr.size
@@ -413,9 +434,11 @@ def discover(
     base fit's training and held-out residuals ``white_tr``/``white_te`` (flattened), its
     held-out raw residuals ``raw_te`` ``(m_te, k)`` (library units), the base Jacobians
     ``jac_tr``/``jac_te`` (scaled base unknowns), the readings ``reading_tr``/``reading_te``
-    (mm), the base fit's residual dof and noise scale. Returns the selected terms, one report
+    (library unit), the base fit's residual dof and noise scale. Returns the selected terms, one report
     dict per group (JSON form), the change of the scaled base unknowns ``δ`` and the
     coefficients (library units) of the final fit, and whether the held-out test passes."""
+    scale = reading_factor(model)[0]
+    reading_tr, reading_te = reading_tr * scale, reading_te * scale
     k = reading_tr.shape[1]
     n_tr, n_te = white_tr.size, white_te.size
     fams = _library(reading_tr, train, k)
@@ -474,6 +497,7 @@ def discover(
 def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, model) -> list[dict[str, Any]]:
     out, off = [], 0
     rf, ru = model.report_factor, model.report_unit
+    fu = reading_factor(model)[1]
     for s, step in zip(terms.specs, steps, strict=True):
         c = _n_coef(s)
         names = ("sin", "cos") if s.form == "periodic" else ("coefficient",)
@@ -481,21 +505,21 @@ def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, mode
         for j in _legs(s, terms.k):
             for i, nm in enumerate(names):
                 coefs.append({"leg": j + 1, "basis": nm, "value": float(coef[off + i] * rf),
-                              "std": float(std[off + i] * rf), "unit": _unit(s, ru)})
+                              "std": float(std[off + i] * rf), "unit": _unit(s, ru, fu)})
             off += c
         d = {
             "leg": None if s.leg is None else s.leg + 1,
             "factor": s.factor,
             "form": s.form,
             "period": s.period,
-            "period_unit": "mm" if s.form == "periodic" and s.factor == "reading" else None,
+            "period_unit": fu if s.form == "periodic" and s.factor == "reading" else None,
             "degree": s.degree,
             "times": s.times or None,
             "coefficients": coefs,
             "gap_after": step["gap_after"],
             "heldout_p": step["heldout_p"],
             "p_value": step["p_value"],
-            "description": describe(s),
+            "description": describe(s, fu),
         }
         if s.form == "periodic":
             amp = [math.hypot(coefs[2 * i]["value"], coefs[2 * i + 1]["value"]) for i in range(len(coefs) // 2)]

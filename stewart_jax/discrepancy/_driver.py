@@ -38,7 +38,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._discovery import challenge, describe, discover as run_discovery, supports_discovery
+from ._discovery import challenge, describe, discover as run_discovery, reading_factor, supports_discovery
 from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
@@ -407,7 +407,7 @@ def _finish(
         named = None
         for i in order:
             contest = challenge(
-                train=train, reading_tr=np.asarray(model.observed(train)) - raw_tr0,
+                model=model, train=train, reading_tr=np.asarray(model.observed(train)) - raw_tr0,
                 white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
                 jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[i]], dof0=dec.dof0, known=known, alpha=alpha,
             )
@@ -418,7 +418,7 @@ def _finish(
             why = ("explains significantly more on top of it" if how == "adds"
                    else "fits better by the information criterion and it adds nothing on top of it")
             notes.append(f"{effects[i].name} passes the held-out test but is not named: an open term, "
-                         f"{describe(spec)}, {why}")
+                         f"{describe(spec, reading_factor(model)[1])}, {why}")
             cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
         if named != a:  # the pair tests were against the contested one
             a, indist, additional = named, [], []
