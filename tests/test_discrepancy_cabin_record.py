@@ -288,30 +288,40 @@ def unregistered_runs(modal, decays):
 
 
 def test_a_missing_vibration_is_found_in_time_not_named(unregistered_runs):
-    # Measured (benchmark, 20 seeds at this noise): found 20 of 20 with the period within 0.5 %;
-    # never a registered name (a mode the model lacks is not a change of its modes' frequencies).
+    # Measured (benchmark, 20 seeds at this noise): found 20 of 20, on x, the period within 2.2 %
+    # (the issue's criterion, 5 %, is asserted); never a registered name (a vibration the model
+    # has no mode for is not a change of its modes' frequencies). One run of UNREG_SEEDS may
+    # miss: the augmented model fails the held-out test at α = 5 % by construction.
+    found = 0
     for rep, truth, _ in unregistered_runs["missing_vibration"]:
         d = rep.to_dict()
-        assert d["detected"] and d["named_effect"] is None and d["explained"], d["summary"]
+        assert d["detected"] and d["named_effect"] is None, d["summary"]
+        if not d["explained"]:
+            continue
         term = d["discovered"][0]
         assert (term["factor"], term["form"], term["period_unit"]) == ("time", "periodic", "s")
-        assert term["output"] in ("x", None) and abs(term["period"] / truth["period_s"] - 1) < 0.01
-        # its amplitude on x is the 3 mm added (µm), to the noise's share of a 70-sample fit
+        assert term["output"] in ("x", None) and abs(term["period"] / truth["period_s"] - 1) < 0.05
+        # its amplitude on x is the 3 mm added (µm): σ = 1 mm over 70 training samples leaves
+        # ~0.17 mm of standard error per coefficient; 0.6 mm is 3.5 of them
         amp = term["amplitude"][0]  # x: the term on x alone, or the first of every coordinate's
         assert term["amplitude_unit"] in ("µm", "µm, µrad") and abs(amp - 3000.0) < 600.0
         assert d["gap_after"] < 1.1 * d["noise_floor"] < d["gap_before"]
+        found += 1
+    assert found >= UNREG_SEEDS - 1
 
 
-def test_a_drifting_tracker_is_never_named_and_found_in_time_when_seen(unregistered_runs):
-    # A drift of 6–12 mm over 20 s on one coordinate, against 1 mm of noise: the modes' initial
-    # displacements and velocities absorb part of it. Measured (benchmark, 20 seeds): never a
-    # registered name; when the open search closes the gap, its first term is a polynomial in
-    # time on the drifting coordinate (or on every one).
+def test_a_drifting_tracker_is_found_in_time_not_named(unregistered_runs):
+    # A drift of 6–12 mm over 20 s on one coordinate, against 1 mm of noise. Measured (benchmark,
+    # 20 seeds at this noise): found 20 of 20 as a polynomial in time on the drifting coordinate
+    # (degree 1 in 19); never a registered name. One miss allowed, as above.
+    found = 0
     for rep, truth, _ in unregistered_runs["tracker_drift"]:
         assert rep.named_effect is None
         if rep.explained:
             t = rep.discovered[0]
             assert t["factor"] == "time" and t["form"] == "polynomial" and t["output"] in (truth["output"], None)
+            found += 1
+    assert found >= UNREG_SEEDS - 1
 
 
 # ------------------------------------------------------------------------ the command line

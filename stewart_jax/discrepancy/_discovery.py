@@ -19,8 +19,9 @@ A model declares the factors its data carry: a record of the FAST cabin's free v
 (:class:`~stewart_jax.discrepancy.CabinRecordModel`) has no readings, directions or
 temperatures; its outputs are the cabin's coordinates, and the search runs over Fourier pairs in
 time (a vibration the model lacks: a mode, a forcing), polynomials in time (seconds: a drifting
-instrument), polynomials of each coordinate's own value (``reading``: a scale error or a
-nonlinearity of the measurement) and the pose components.
+instrument) and polynomials of each coordinate's own predicted value (``reading``: a scale error
+or a nonlinearity of the measurement) — not over the measured pose, which is the observation
+itself.
 
 A *group* is one term on one actuator (``leg`` 1–6) or the same term on every actuator with
 one coefficient each (``leg`` null). Groups are fitted jointly with the base parameters (the
@@ -209,7 +210,8 @@ def describe(spec: TermSpec, units: TermUnits) -> str:
     if spec.form == "periodic":
         unit = period_unit(spec, units) or ""
         unit = "°" if unit == "deg" else f" {unit}"
-        s = f"a periodic error in {what} with period {spec.period:.4g}{unit}".rstrip()
+        kind = "error" if spec.factor == "reading" else "signal"
+        s = f"a periodic {kind} in {what} with period {spec.period:.4g}{unit}".rstrip()
     elif spec.form == "step":
         s = f"a step with {what} (lost motion)"
     else:
