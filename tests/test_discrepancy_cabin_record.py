@@ -254,6 +254,76 @@ def test_the_fitted_mass_share_is_the_lumped_models(runs):
     assert fitted_modes(model)["frequencies_hz"][0] > 1.5 * lm[0]
 
 
+# ------------------------------------------------- effects the registry lacks: the open search
+
+# Added to the quasi-static record here, in NumPy (the workflow's candidates cannot express
+# either): a vibration the model has no mode for (3 mm on x at a period of 2.5–6 s) and a
+# tracker drifting on one position coordinate (0.3–0.6 mm/s). UNREG_SEEDS runs each; the rates
+# over 20 seeds are benchmarks/fast_cabin_discovery.py's.
+UNREG_SEEDS = 2
+
+
+def _unregistered(case, t, pos, rng):
+    pos = pos.copy()
+    if case == "missing_vibration":
+        period = rng.uniform(2.5, 6.0)
+        pos[:, 0] += 3.0 * np.sin(2 * np.pi * t / period + rng.uniform(0, 2 * np.pi))
+        return pos, {"output": "x", "period_s": period}
+    j = int(rng.integers(3))
+    pos[:, j] += rng.choice([-1.0, 1.0]) * rng.uniform(0.3, 0.6) * t
+    return pos, {"output": "xyz"[j]}
+
+
+@pytest.fixture(scope="module")
+def unregistered_runs(modal, decays):
+    out = {}
+    for case in ("missing_vibration", "tracker_drift"):
+        out[case] = []
+        for s in range(UNREG_SEEDS):
+            r = decays["none"].sample(RATE_HZ, sigma_mm=SIGMA_MM, sigma_deg=SIGMA_DEG, seed=s)
+            pos, truth = _unregistered(case, r.time, r.position_mm, np.random.default_rng([s, 28]))
+            data = read_cabin_record(r._replace(position_mm=pos))
+            out[case].append((diagnose(data, cabin_record_model(data, POS, modal=modal), seed=s), truth, data))
+    return out
+
+
+def test_a_missing_vibration_is_found_in_time_not_named(unregistered_runs):
+    # Measured (benchmark, 20 seeds at this noise): found 20 of 20, on x, the period within 2.2 %
+    # (the issue's criterion, 5 %, is asserted); never a registered name (a vibration the model
+    # has no mode for is not a change of its modes' frequencies). One run of UNREG_SEEDS may
+    # miss: the augmented model fails the held-out test at α = 5 % by construction.
+    found = 0
+    for rep, truth, _ in unregistered_runs["missing_vibration"]:
+        d = rep.to_dict()
+        assert d["detected"] and d["named_effect"] is None, d["summary"]
+        if not d["explained"]:
+            continue
+        term = d["discovered"][0]
+        assert (term["factor"], term["form"], term["period_unit"]) == ("time", "periodic", "s")
+        assert term["output"] in ("x", None) and abs(term["period"] / truth["period_s"] - 1) < 0.05
+        # its amplitude on x is the 3 mm added (µm): σ = 1 mm over 70 training samples leaves
+        # ~0.17 mm of standard error per coefficient; 0.6 mm is 3.5 of them
+        amp = term["amplitude"][0]  # x: the term on x alone, or the first of every coordinate's
+        assert term["amplitude_unit"] in ("µm", "µm, µrad") and abs(amp - 3000.0) < 600.0
+        assert d["gap_after"] < 1.1 * d["noise_floor"] < d["gap_before"]
+        found += 1
+    assert found >= UNREG_SEEDS - 1
+
+
+def test_a_drifting_tracker_is_found_in_time_not_named(unregistered_runs):
+    # A drift of 6–12 mm over 20 s on one coordinate, against 1 mm of noise. Measured (benchmark,
+    # 20 seeds at this noise): found 20 of 20 as a polynomial in time on the drifting coordinate
+    # (degree 1 in 19); never a registered name. One miss allowed, as above.
+    found = 0
+    for rep, truth, _ in unregistered_runs["tracker_drift"]:
+        assert rep.named_effect is None
+        if rep.explained:
+            t = rep.discovered[0]
+            assert t["factor"] == "time" and t["form"] == "polynomial" and t["output"] in (truth["output"], None)
+            found += 1
+    assert found >= UNREG_SEEDS - 1
+
+
 # ------------------------------------------------------------------------ the command line
 
 

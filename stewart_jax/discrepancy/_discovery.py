@@ -15,6 +15,14 @@ regressed on terms of the factors the data carry:
 - temperature ``T − 20 °C`` and its product with the reading (a temperature-dependent scale);
 - time (hours, degree 1 and 2) and the pose components (degree 2).
 
+A model declares the factors its data carry: a record of the FAST cabin's free vibration
+(:class:`~stewart_jax.discrepancy.CabinRecordModel`) has no readings, directions or
+temperatures; its outputs are the cabin's coordinates, and the search runs over Fourier pairs in
+time (a vibration the model lacks: a mode, a forcing), polynomials in time (seconds: a drifting
+instrument) and polynomials of each coordinate's own predicted value (``reading``: a scale error
+or a nonlinearity of the measurement) — not over the measured pose, which is the observation
+itself.
+
 A *group* is one term on one actuator (``leg`` 1–6) or the same term on every actuator with
 one coefficient each (``leg`` null). Groups are fitted jointly with the base parameters (the
 whitened base Jacobian at the base fit is in every regression, so what the geometry can absorb
@@ -94,10 +102,16 @@ def reading_factor(model: Any) -> tuple[float, str]:
     return READING_FACTOR_UNITS[unit]
 
 
+def time_unit(data: Any) -> tuple[str, float]:
+    """``(unit, seconds per unit)`` of the ``time`` factor: hours for a measurement session,
+    the data's own ``time_unit`` where it declares one (seconds for a cabin record)."""
+    return getattr(data, "time_unit", ("h", HOUR_S))
+
+
 def _factor_x(spec: TermSpec, reading, data, xp=np):
     """``(m, k)`` values of the term's factor: ``reading`` in the factor's unit (the caller
     scales it: :func:`reading_factor`), poses in mm and degrees, temperature minus 20 °C, time
-    in hours."""
+    in :func:`time_unit`."""
     m, k = reading.shape
     if spec.factor == "reading":
         return reading
@@ -106,7 +120,7 @@ def _factor_x(spec: TermSpec, reading, data, xp=np):
     if spec.factor == "temperature":
         return xp.broadcast_to(xp.asarray(data.temperature)[:, None] - T_REF_C, (m, k))
     if spec.factor == "time":
-        return xp.broadcast_to(xp.asarray(data.time)[:, None] / HOUR_S, (m, k))
+        return xp.broadcast_to(xp.asarray(data.time)[:, None] / time_unit(data)[1], (m, k))
     _, i, f, _ = next(p for p in _POSE if p[0] == spec.factor)
     return xp.broadcast_to(xp.asarray(data.poses)[:, i : i + 1] * f, (m, k))
 
@@ -136,28 +150,68 @@ def _legs(spec: TermSpec, k: int) -> list[int]:
     return list(range(k)) if spec.leg is None else [spec.leg]
 
 
-def _unit(spec: TermSpec, report_unit: str, reading_unit: str = "mm") -> str:
-    """Unit of a term's coefficient (the residual's report unit per unit of the basis;
-    ``reading_unit``: the reading factor's)."""
+class TermUnits(NamedTuple):
+    """How a model's terms are named: per output, the ``reading`` factor's unit and the
+    residual's report unit; the ``time`` factor's unit; the noun of an output (``actuator``,
+    ``coordinate``) and its ``names`` (``None``: numbered from 1)."""
+
+    reading: tuple[str, ...]
+    report: tuple[str, ...]
+    time: str
+    noun: str
+    names: tuple[str, ...] | None
+
+
+def term_units(model: Any) -> TermUnits:
+    """The :class:`TermUnits` of ``model``: a hexapod's readings in :func:`reading_factor`'s unit,
+    its residuals in its report unit, time in hours; a model may declare ``output_units``,
+    ``output_report_units``, ``time_unit``, ``output_noun`` (then its outputs are named by
+    ``output_names``)."""
+    k = len(model.output_names)
+    noun = getattr(model, "output_noun", "actuator")
+    return TermUnits(
+        tuple(getattr(model, "output_units", (reading_factor(model)[1],) * k)),
+        tuple(getattr(model, "output_report_units", (model.report_unit,) * k)),
+        getattr(model, "time_unit", "h"),
+        noun,
+        None if noun == "actuator" else tuple(model.output_names),
+    )
+
+
+def _unit(spec: TermSpec, units: TermUnits, leg: int) -> str:
+    """Unit of a term's coefficient on output ``leg`` (0-based): the residual's report unit per
+    unit of the basis."""
     if spec.form == "periodic" or spec.form == "step":
         per = ""
     else:
-        u = {"reading": reading_unit, "temperature": "K", "time": "h", "dir": ""}.get(spec.factor)
+        u = {"reading": units.reading[leg], "temperature": "K", "time": units.time, "dir": ""}.get(spec.factor)
         u = u if u is not None else next(p[3] for p in _POSE if p[0] == spec.factor)
         per = u if spec.degree == 1 else f"{u}^{spec.degree}"
     if spec.times == "temperature":
         per = f"{per}·K" if per else "K"
-    return f"{report_unit}/{per}" if per else report_unit
+    return f"{units.report[leg]}/{per}" if per else units.report[leg]
 
 
-def describe(spec: TermSpec, reading_unit: str = "mm") -> str:
-    """The term in words (``reading_unit``: the reading factor's, :func:`reading_factor`)."""
-    who = "every actuator" if spec.leg is None else f"actuator {spec.leg + 1}"
-    what = {"reading": "its reading", "dir": "its approach direction"}.get(spec.factor, spec.factor)
+def period_unit(spec: TermSpec, units: TermUnits) -> str | None:
+    """The unit of a periodic term's period (its factor's), else ``None``."""
+    if spec.form != "periodic":
+        return None
+    return {"reading": units.reading[spec.leg or 0], "time": units.time}.get(spec.factor)
+
+
+def describe(spec: TermSpec, units: TermUnits) -> str:
+    """The term in words."""
+    if spec.leg is None:
+        who = f"every {units.noun}"
+    else:
+        who = f"{units.noun} {spec.leg + 1 if units.names is None else units.names[spec.leg]}"
+    what = {"reading": "its reading" if units.noun == "actuator" else "its own value",
+            "dir": "its approach direction"}.get(spec.factor, spec.factor)
     if spec.form == "periodic":
-        unit = reading_unit if spec.factor == "reading" else ""
+        unit = period_unit(spec, units) or ""
         unit = "°" if unit == "deg" else f" {unit}"
-        s = f"a periodic error in {what} with period {spec.period:.4g}{unit}".rstrip()
+        kind = "error" if spec.factor == "reading" else "signal"
+        s = f"a periodic {kind} in {what} with period {spec.period:.4g}{unit}".rstrip()
     elif spec.form == "step":
         s = f"a step with {what} (lost motion)"
     else:
@@ -197,7 +251,8 @@ class DiscoveredTerms(NamedTuple):
         factor is the model's prediction before the terms)."""
         requires = {"dir": ("directions",), "temperature": ("temperature",), "time": ("time",)}
         req = sorted({c for s in self.specs for c in requires.get(s.factor, ()) + requires.get(s.times, ())})
-        scale, unit = reading_factor(model)
+        scale = reading_factor(model)[0]
+        units = term_units(model)
 
         def apply(theta, data, state):
             reading = model.finish(state, data)
@@ -208,7 +263,7 @@ class DiscoveredTerms(NamedTuple):
         return Effect(
             name="discovered", model=model.name, n_params=n, apply=apply, scale=(model.report_factor**-1,) * n,
             unit=model.report_unit, report_factor=(model.report_factor,) * n, requires=tuple(req),
-            acts_on="mechanism", doc="; ".join(describe(s, unit) for s in self.specs),
+            acts_on="mechanism", doc="; ".join(describe(s, units) for s in self.specs),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -220,36 +275,53 @@ class DiscoveredTerms(NamedTuple):
 
 
 def supports_discovery(model: Any, data: Any) -> bool:
-    """The open search applies to models whose observations are actuator readings with an
-    additive offset in their state (the 6-PSS, 6-UPS and 6-RUS models)."""
-    if not isinstance(data, CalibrationData):
+    """The open search applies to models with an additive offset of their outputs in their state:
+    those whose observations are actuator readings (the 6-PSS, 6-UPS and 6-RUS models) and those
+    that declare ``open_search`` (the FAST cabin record)."""
+    if not (isinstance(data, CalibrationData) or getattr(model, "open_search", False)):
         return False
     return "offset" in getattr(type(model.initial_state(model.base_initial, data, False)), "_fields", ())
 
 
-def _library(reading_tr: np.ndarray, data, k: int) -> list[list[TermSpec]]:
-    """The candidate groups, as families (a family of periodic groups shares one period grid)."""
+def _periods(x: np.ndarray) -> np.ndarray:
+    """The geometric grid of periods for a factor whose training values (per output) are ``x``
+    ``(m, k)``: from :data:`SAMPLES_PER_PERIOD` values per period to the range over
+    :data:`MIN_PERIODS_IN_RANGE`; empty for a constant factor."""
+    span = float(np.median(np.ptp(x, axis=0)))
+    if not span > 0:
+        return np.zeros(0)
+    p_max = span / MIN_PERIODS_IN_RANGE
+    p_min = SAMPLES_PER_PERIOD * span / x.shape[0]
+    return p_min * PERIOD_RATIO ** np.arange(int(math.log(p_max / p_min) / math.log(PERIOD_RATIO)) + 1)
+
+
+def _library(reading_tr: np.ndarray, data, k: int, periodic: Sequence[str] = ("reading",)) -> list[list[TermSpec]]:
+    """The candidate groups, as families (a family of periodic groups shares one period grid);
+    Fourier pairs in the factors ``periodic`` (the model's ``open_search_periodic``)."""
     fams: list[list[TermSpec]] = []
     legs: list[int | None] = [None, *range(k)]
-    span = float(np.median(np.ptp(reading_tr, axis=0)))
-    if span > 0:
-        p_max = span / MIN_PERIODS_IN_RANGE
-        p_min = SAMPLES_PER_PERIOD * span / reading_tr.shape[0]
-        periods = p_min * PERIOD_RATIO ** np.arange(int(math.log(p_max / p_min) / math.log(PERIOD_RATIO)) + 1)
-        for leg in legs:
-            fams.append([TermSpec("reading", "periodic", float(p), None, "", leg) for p in periods])
+    time = getattr(data, "time", None)
+    for factor in periodic:
+        x = reading_tr if factor == "reading" else None
+        if factor == "time" and time is not None:
+            x = _factor_x(TermSpec("time", "polynomial", None, 1, "", None), reading_tr, data)
+        periods = _periods(x) if x is not None else np.zeros(0)
+        for leg in legs if periods.size else ():
+            fams.append([TermSpec(factor, "periodic", float(p), None, "", leg) for p in periods])
+    if float(np.median(np.ptp(reading_tr, axis=0))) > 0:
         for d in (1, 2, 3):
             fams.append([TermSpec("reading", "polynomial", None, d, "", leg) for leg in legs])
-    if data.directions is not None:
+    if getattr(data, "directions", None) is not None:
         fams.append([TermSpec("dir", "step", None, None, "", leg) for leg in legs])
-    if data.temperature is not None:
+    if getattr(data, "temperature", None) is not None:
         fams.append([TermSpec("temperature", "polynomial", None, 1, "", leg) for leg in legs])
         fams.append([TermSpec("reading", "polynomial", None, 1, "temperature", leg) for leg in legs])
-    if data.time is not None:
+    if time is not None:
         for d in (1, 2):
             fams.append([TermSpec("time", "polynomial", None, d, "", leg) for leg in legs])
-    for name, *_ in _POSE:
-        fams.append([TermSpec(name, "polynomial", None, 2, "", leg) for leg in legs])
+    if getattr(data, "poses", None) is not None:
+        for name, *_ in _POSE:
+            fams.append([TermSpec(name, "polynomial", None, 2, "", leg) for leg in legs])
     return fams
 
 
@@ -379,7 +451,7 @@ def challenge(
     residual's second-order misfit."""
     reading_tr = reading_tr * reading_factor(model)[0]
     k = reading_tr.shape[1]
-    fams = _library(reading_tr, train, k)
+    fams = _library(reading_tr, train, k, getattr(model, "open_search_periodic", ("reading",)))
     n_tr = white_tr.size
     q_g = basis(jac_base)
     r0 = white_tr - q_g @ (q_g.T @ white_tr)
@@ -441,7 +513,7 @@ def discover(
     reading_tr, reading_te = reading_tr * scale, reading_te * scale
     k = reading_tr.shape[1]
     n_tr, n_te = white_tr.size, white_te.size
-    fams = _library(reading_tr, train, k)
+    fams = _library(reading_tr, train, k, getattr(model, "open_search_periodic", ("reading",)))
     n_groups = sum(len(f) for f in fams)
     level = alpha / max(n_groups, 1)
     chosen: list[TermSpec] = []
@@ -496,8 +568,8 @@ def discover(
 
 def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, model) -> list[dict[str, Any]]:
     out, off = [], 0
-    rf, ru = model.report_factor, model.report_unit
-    fu = reading_factor(model)[1]
+    rf = model.report_factor
+    units = term_units(model)
     for s, step in zip(terms.specs, steps, strict=True):
         c = _n_coef(s)
         names = ("sin", "cos") if s.form == "periodic" else ("coefficient",)
@@ -505,25 +577,26 @@ def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, mode
         for j in _legs(s, terms.k):
             for i, nm in enumerate(names):
                 coefs.append({"leg": j + 1, "basis": nm, "value": float(coef[off + i] * rf),
-                              "std": float(std[off + i] * rf), "unit": _unit(s, ru, fu)})
+                              "std": float(std[off + i] * rf), "unit": _unit(s, units, j)})
             off += c
         d = {
             "leg": None if s.leg is None else s.leg + 1,
+            "output": None if s.leg is None or units.names is None else units.names[s.leg],
             "factor": s.factor,
             "form": s.form,
             "period": s.period,
-            "period_unit": fu if s.form == "periodic" and s.factor == "reading" else None,
+            "period_unit": period_unit(s, units),
             "degree": s.degree,
             "times": s.times or None,
             "coefficients": coefs,
             "gap_after": step["gap_after"],
             "heldout_p": step["heldout_p"],
             "p_value": step["p_value"],
-            "description": describe(s, fu),
+            "description": describe(s, units),
         }
         if s.form == "periodic":
             amp = [math.hypot(coefs[2 * i]["value"], coefs[2 * i + 1]["value"]) for i in range(len(coefs) // 2)]
             d["amplitude"] = amp
-            d["amplitude_unit"] = ru
+            d["amplitude_unit"] = ", ".join(dict.fromkeys(units.report[j] for j in _legs(s, terms.k)))
         out.append(d)
     return out

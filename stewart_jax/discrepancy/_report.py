@@ -52,7 +52,8 @@ class FittedModel(eqx.Module):
         return self.model.predict(self.base, self.effects, self.thetas, data, control=True)
 
     def effect_report(self) -> list[dict[str, Any]]:
-        """Per effect: name, parameters in report units, unit, side (JSON form)."""
+        """Per effect: name, parameters in report units, unit, side, and for discovered terms their
+        definition (``terms``) (JSON form)."""
         return [
             {
                 "effect": e.name,
@@ -60,6 +61,7 @@ class FittedModel(eqx.Module):
                 "unit": e.unit,
                 "acts_on": e.acts_on,
             }
+            | ({"terms": e.apply.terms.to_dict()} if hasattr(e.apply, "terms") else {})  # the open search's
             for e, t in zip(self.effects, self.thetas, strict=True)
         ]
 
