@@ -178,7 +178,11 @@ class CabinRecordModel(AbstractDiscrepancyModel):
     output_units: ClassVar[tuple[str, ...]] = ("mm",) * 3 + ("mrad",) * 3
     output_report_units: ClassVar[tuple[str, ...]] = ("µm",) * 3 + ("µrad",) * 3
     output_noun: ClassVar[str] = "coordinate"
-    time_unit: ClassVar[str] = "s"
+    time_unit: ClassVar[str] = CabinRecordData.time_unit[0]
+    # NOTE: the fits eigen-decompose the modes; batched over records those become batched
+    # LAPACK calls (``syevd``) that deadlock XLA's CPU thread pool in jaxlib 0.10 (measured: two
+    # records of the FAST cabin hung in the first batched fit).
+    batched_fits: ClassVar[bool] = False
 
     @property
     def base_initial(self) -> Float[Array, "19"]:

@@ -55,7 +55,6 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from ..calibration._problem import CalibrationData
 from ._registry import Effect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p
 from ._subspace import SINE_TOL, basis
@@ -275,10 +274,10 @@ class DiscoveredTerms(NamedTuple):
 
 
 def supports_discovery(model: Any, data: Any) -> bool:
-    """The open search applies to models with an additive offset of their outputs in their state:
-    those whose observations are actuator readings (the 6-PSS, 6-UPS and 6-RUS models) and those
-    that declare ``open_search`` (the FAST cabin record)."""
-    if not (isinstance(data, CalibrationData) or getattr(model, "open_search", False)):
+    """The open search applies to models that declare ``open_search`` (every mechanism's model:
+    6-PSS, 6-UPS, 6-RUS; the FAST cabin record) and have an additive offset of their outputs in
+    their state."""
+    if not model.open_search:
         return False
     return "offset" in getattr(type(model.initial_state(model.base_initial, data, False)), "_fields", ())
 
@@ -302,12 +301,11 @@ def _library(reading_tr: np.ndarray, data, k: int, periodic: Sequence[str] = ("r
     legs: list[int | None] = [None, *range(k)]
     time = getattr(data, "time", None)
     for factor in periodic:
-        x = reading_tr if factor == "reading" else None
-        if factor == "time" and time is not None:
-            x = _factor_x(TermSpec("time", "polynomial", None, 1, "", None), reading_tr, data)
-        periods = _periods(x) if x is not None else np.zeros(0)
-        for leg in legs if periods.size else ():
-            fams.append([TermSpec(factor, "periodic", float(p), None, "", leg) for p in periods])
+        if factor == "time" and time is None:
+            continue
+        periods = _periods(_factor_x(TermSpec(factor, "periodic", 1.0, None, "", None), reading_tr, data))
+        if periods.size:
+            fams += [[TermSpec(factor, "periodic", float(p), None, "", leg) for p in periods] for leg in legs]
     if float(np.median(np.ptp(reading_tr, axis=0))) > 0:
         for d in (1, 2, 3):
             fams.append([TermSpec("reading", "polynomial", None, d, "", leg) for leg in legs])

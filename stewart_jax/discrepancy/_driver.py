@@ -200,12 +200,9 @@ def diagnose_many(
     for e in effects:
         if e.model != model.name:
             raise ValueError(f"effect {e.name!r} belongs to model {e.model!r}, not {model.name!r}")
-    if len(trains) > 1 and model.effect_grid(effects) is not None:
-        # NOTE: one data set at a time (the same compiled kernels). A model with an effect grid
-        # (the cabin record) eigen-decomposes its modes inside the fits, and batched over data
-        # sets those become batched LAPACK calls (``syevd``) that deadlock XLA's CPU thread pool
-        # in jaxlib 0.10 (see ``stewart_jax/_linalg.py``): measured, two records of the FAST
-        # cabin hung in the first batched fit.
+    if len(trains) > 1 and not model.batched_fits:
+        # NOTE: one data set at a time (the same compiled kernels): see the model's
+        # ``batched_fits``.
         return [diagnose_many(model, effects, [tr], [te], alpha=alpha, estimate_noise=estimate_noise,
                               skipped=skipped, discover=discover)[0] for tr, te in zip(trains, tests, strict=True)]
     train_b, test_b = _stack(trains), _stack(tests)

@@ -18,6 +18,7 @@ adds only its state — what its effects may change — and its effects.
 from __future__ import annotations
 
 import abc
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -122,6 +123,8 @@ class AbstractMechanismModel(AbstractPoseNoiseModel):
     linear family and µrad for a rotary one; the pose Jacobian is the mechanism's
     (:meth:`~stewart_jax.mechanism.AbstractMechanism.ik_and_jacobian`).
     """
+
+    open_search: ClassVar[bool] = True
 
     mechanism: eqx.AbstractVar[AbstractMechanism]
 

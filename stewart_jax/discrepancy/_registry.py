@@ -187,6 +187,13 @@ class AbstractDiscrepancyModel(eqx.Module):
     report_factor: ClassVar[float]
     fit_steps: ClassVar[int | None] = None
     """Gauss–Newton steps of the augmented fits (``None``: the workflow's default)."""
+    open_search: ClassVar[bool] = False
+    """Whether the open term search runs on this model (its state then has an additive
+    ``offset`` of the outputs; see ``_discovery.py`` for the factors a model may declare)."""
+    batched_fits: ClassVar[bool] = True
+    """Whether many data sets may be fitted in one batch. ``False`` for a model whose fits hold
+    LAPACK calls that, batched, deadlock jaxlib 0.10's CPU thread pool (see
+    ``stewart_jax/_linalg.py``): its data sets are fitted one at a time."""
 
     def effect_grid(self, effects: Sequence[Effect]) -> np.ndarray | None:
         """Optional: starting points for the augmented fits of an effect whose prediction is far
