@@ -9,7 +9,7 @@ STAMP := $(VENV)/.stewart-jax-installed
 # The methods: every registered calibration method (read from the registry when the demo runs).
 DEMO_TRIALS ?= 10
 DEMO_BUDGET ?= 50000
-DEMO_METHODS ?= $(shell $(BIN)/python -c "from stewart_jax.calibration import METHODS; print(','.join(METHODS))")
+DEMO_METHODS ?= $(shell $(BIN)/python -c "from stewart_jax.calibration import METHOD_REGISTRY; print(','.join(METHOD_REGISTRY))")
 
 .PHONY: venv demo test lint docs bench bench-deps clean
 

@@ -47,9 +47,7 @@ catenary's Jacobian and starts, the platform's Newton–Euler dynamics, the inte
 :func:`run_scenario`, the modal sum and the record CSV's writer) are private.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._attitude import (
     AttitudeSolution as AttitudeSolution,
     smallest_feasible_tilt as smallest_feasible_tilt,
@@ -97,6 +95,3 @@ from ._workspace import (
     workspace_map as workspace_map,
 )
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
