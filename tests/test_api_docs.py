@@ -1,7 +1,8 @@
 """The API reference: the documented public names are the real ones, both ways (every public
 name of the package has an entry in ``docs/api/*.md``, and every entry ``package.name`` is a name
 the package exports, so nothing is public by accident and no page documents a name that is not
-there), every member an entry lists exists, and every subpackage has a page. No build is needed (the strict build, which renders these entries, is ``tests/test_docs.py``): a
+there), every member an entry lists exists, and every subpackage has a page. No build is needed
+(the strict build, which renders these entries, is ``tests/test_docs.py``): a
 file of its own, so that the test workers do not wait for the build to run these.
 """
 
