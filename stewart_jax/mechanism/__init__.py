@@ -17,6 +17,7 @@
 """
 
 
+from . import _ups_presets  # noqa: F401  (the 6-UPS presets register themselves)
 from ._abstract import AbstractMechanism as AbstractMechanism, IKSolution as IKSolution
 from ._batched import (
     forward_kinematics_newton as forward_kinematics_newton,
