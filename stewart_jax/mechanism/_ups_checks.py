@@ -15,6 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
+from .._units import TRAVEL_MM, TRAVEL_RAD
+
 if TYPE_CHECKING:
     from ._ups import UPSMechanism
 
@@ -116,8 +118,6 @@ def _reachable_scale(m: UPSMechanism) -> float:
     travel box (default ±1 mm / ±1°) are reachable, and those of every smaller ``s`` (0 if none):
     one batched inverse kinematics (the bisection of ``reachable_travel`` would compile op by
     op at each file load)."""
-    from ..calibration._simulation import TRAVEL_MM, TRAVEL_RAD
-
     half = m.travel_half_widths
     half = np.array([TRAVEL_MM] * 3 + [TRAVEL_RAD] * 3) if half is None else half
     unit = np.concatenate([np.array(list(itertools.product((1.0, -1.0), repeat=6))),
