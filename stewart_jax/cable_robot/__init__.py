@@ -61,13 +61,15 @@ from ._catenary import (
 )
 from ._free_decay import lumped_free_decay as lumped_free_decay, quasi_static_free_decay as quasi_static_free_decay
 from ._lumped import (
-    LumpedLowModes as LumpedLowModes,
     LumpedModes as LumpedModes,
     LumpedStatics as LumpedStatics,
-    ModalSummary as ModalSummary,
-    lumped_low_modes as lumped_low_modes,
     lumped_modes as lumped_modes,
     lumped_statics as lumped_statics,
+)
+from ._lumped_low import (
+    LumpedLowModes as LumpedLowModes,
+    ModalSummary as ModalSummary,
+    lumped_low_modes as lumped_low_modes,
     modal_summary as modal_summary,
 )
 from ._lumped_time import LumpedTrajectory as LumpedTrajectory, simulate_lumped as simulate_lumped
