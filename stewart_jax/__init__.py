@@ -15,9 +15,7 @@ and geometry files, forward and inverse kinematics, the measurement CSV, simulat
 - :mod:`stewart_jax.cable_robot` — the FAST cable-driven feed support (Yin et al.);
 - :mod:`stewart_jax.plotting` — figures (needs matplotlib).
 
-The last three are imported on first use. A name that left the public surface still answers
-from its old place with a ``DeprecationWarning`` naming its replacement (``stewart_jax._moved``;
-the table is ``docs/api/moved.md``).
+The last three are imported on first use.
 
 NOTE: importing the package enables ``jax_enable_x64`` once: calibration carries micrometres
 over 100 mm (1e-5 relative), which float32 cannot hold. Every array the library creates is
@@ -31,7 +29,7 @@ import jax as _jax
 
 _jax.config.update("jax_enable_x64", True)
 
-from . import _moved, calibration as calibration, mechanism as mechanism, optimise as optimise, study as study
+from . import calibration as calibration, mechanism as mechanism, optimise as optimise, study as study
 from ._math import euler_angles as euler_angles, rotation_matrix as rotation_matrix
 from .calibration import (
     calibrate as calibrate,
@@ -63,7 +61,7 @@ except _PackageNotFoundError:  # running from a source tree that was never insta
 def __getattr__(name: str):
     if name in _LAZY:
         return _importlib.import_module(f".{name}", __name__)
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__():

@@ -23,9 +23,7 @@ markers or dashed lines labelled "paper".
   :func:`plot_discrepancy_ranking`, :func:`plot_discrepancy_gap`, :func:`plot_cabin_record`.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._cable_robot import (
     plot_fast_focal_map as plot_fast_focal_map,
     plot_fast_frequencies as plot_fast_frequencies,
@@ -51,6 +49,3 @@ from ._discrepancy import (
 )
 from ._mechanism import plot_workspace as plot_workspace
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
