@@ -101,3 +101,31 @@ def nominal_and_true(args: argparse.Namespace):
     if type(nominal) is not type(true):
         raise ValueError(f"--geometry is a {nominal.family}, --true a {true.family}: give one family")
     return nominal, true
+
+
+CALIBRATION_KEY = "_calibration"
+"""The calibrated geometry file's record of what the data support (a ``_`` key: the families ignore it)."""
+
+
+def save_calibrated(path: str, nominal, calibrated, assessment, prior_scale) -> None:
+    """Write the calibrated geometry with a ``_calibration`` record: the nominal parameters, each
+    parameter's standard deviation about the truth (``null`` where the data do not support its
+    value), its prior scale and the data status, which ``export`` checks (atomic)."""
+    import json
+
+    import numpy as np
+
+    from .._files import write_text_atomic
+
+    n = nominal.n_params
+    std = np.asarray(assessment.param_std)[:n]
+    d = calibrated.to_dict()
+    d[CALIBRATION_KEY] = {
+        "data_status": assessment.status,
+        "param_names": list(nominal.param_names),
+        "param_units": list(nominal.param_units),
+        "nominal_params": [float(x) for x in np.asarray(nominal.params)],
+        "param_std": [float(s) if np.isfinite(s) else None for s in std],
+        "prior_scale": [float(s) for s in np.asarray(prior_scale)[:n]],
+    }
+    write_text_atomic(path, json.dumps(d, indent=2) + "\n")

@@ -128,9 +128,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, out)
     if args.out_geometry and cal.status != "nonfinite":
-        from ..mechanism._registry import save_mechanism
+        from ..calibration._determined import prior_scale
+        from ._common import save_calibrated
 
-        save_mechanism(cal.mechanism, args.out_geometry)
+        save_calibrated(args.out_geometry, nominal, cal.mechanism, a, prior_scale(nominal.param_units))
     if not args.json:
         from .._files import json_text
 

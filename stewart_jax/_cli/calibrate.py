@@ -10,7 +10,15 @@ import numpy as np
 
 from .._units import ascii_unit, is_angle, report_factor, report_unit
 from ..calibration._methods import METHOD_REGISTRY
-from ._common import check_outputs, file_backend, load_nominal, noise_args, param_set_arg, write_json
+from ._common import (
+    check_outputs,
+    file_backend,
+    load_nominal,
+    noise_args,
+    param_set_arg,
+    save_calibrated,
+    write_json,
+)
 
 
 def _reading_labels(mechanism) -> tuple[str, str, str]:
@@ -46,11 +54,12 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
 
     import jax
+    import jax.numpy as jnp
 
-    from ..calibration._assessment import assess_calibration, implied_pose_errors
+    from ..calibration._assessment import assess_calibration, hold_undetermined, implied_pose_errors
     from ..calibration._csv import read_csv
     from ..calibration._methods import calibrate
-    from ..calibration._problem import calibration_problem
+    from ..calibration._problem import calibration_problem, stroke_residuals
     from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
@@ -65,8 +74,12 @@ def run(args: argparse.Namespace) -> int:
         options["max_steps"] = args.max_steps
     t0 = time.perf_counter()
     result = jax.block_until_ready(calibrate(problem, args.method, jax.random.key(args.seed), **options))
-    seconds = time.perf_counter() - t0
     params = np.asarray(result.params)
+    if np.all(np.isfinite(params)):
+        params = hold_undetermined(nominal, data, params, args.sigma_um, args.sigma_arcsec)
+        result = result._replace(params=params, cost=float(np.sum(np.asarray(
+            stroke_residuals(jnp.asarray(params), data, nominal)) ** 2)))
+    seconds = time.perf_counter() - t0
     m = data.n_poses
     rms_key, reading_unit, cost_unit = _reading_labels(nominal)
     out = {
@@ -90,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     calibrated = nominal.with_params(params)
     assessment = None
     if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
-        assessment = assess_calibration(calibrated, data, args.sigma_um, args.sigma_arcsec)
+        assessment = assess_calibration(calibrated, data, args.sigma_um, args.sigma_arcsec, nominal=nominal)
         out.update(_assessment_keys(assessment))
         if assessment.status != "nonfinite":
             from ..calibration._identifiability import predicted_control_error_std
@@ -128,12 +141,15 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, out)
     if args.out_geometry and out["status"] != "nonfinite":
-        save_mechanism(calibrated, args.out_geometry)
+        if assessment is None:
+            save_mechanism(calibrated, args.out_geometry)
+        else:
+            from ..calibration._determined import prior_scale
+
+            save_calibrated(args.out_geometry, nominal, calibrated, assessment, prior_scale(nominal.param_units))
     if args.plot:
         file_backend()
         from .. import plotting
-        from ..calibration._problem import stroke_residuals
-
         factor = report_factor(nominal.reading_unit)
         before = np.asarray(stroke_residuals(nominal.params, data, nominal)).reshape(-1, 6) * factor
         after = np.asarray(stroke_residuals(result.params, data, nominal)).reshape(-1, 6) * factor
@@ -180,7 +196,7 @@ def _heldout(args, data, nominal, fraction, options) -> dict:
     """Calibrate without a random ``fraction`` of the rows; the held-out rows' implied pose errors."""
     import jax
 
-    from ..calibration._assessment import implied_pose_errors
+    from ..calibration._assessment import hold_undetermined, implied_pose_errors
     from ..calibration._methods import calibrate
     from ..calibration._problem import calibration_problem
 
@@ -194,7 +210,10 @@ def _heldout(args, data, nominal, fraction, options) -> dict:
                          "parameters with; use a smaller fraction or --holdout 0")
     res = calibrate(calibration_problem(data.take(train), nominal, args.half_width, args.half_width_mrad), args.method,
                     jax.random.key(args.seed), **options)
-    fitted = nominal.with_params(res.params)
+    params = np.asarray(res.params)
+    if np.all(np.isfinite(params)):
+        params = hold_undetermined(nominal, data.take(train), params, args.sigma_um, args.sigma_arcsec)
+    fitted = nominal.with_params(params)
     held = data.take(test)
     return {"rows": (test + 1).tolist(),
             "errors": {"nominal geometry": implied_pose_errors(nominal, held),

@@ -12,6 +12,7 @@ def run(args: argparse.Namespace) -> int:
     from ..mechanism._registry import load_mechanism, mechanism_json
     from ._common import check_outputs
 
+    _check_supported(args)
     if args.format == "linuxcnc":
         return _run_linuxcnc(args)
     check_outputs(args, out="--out")
@@ -53,6 +54,52 @@ def _run_linuxcnc(args: argparse.Namespace) -> int:
     return 0
 
 
+def unsupported_moves(path: str) -> list[str]:
+    """The parameters a calibrated geometry file (with the ``_calibration`` record ``calibrate
+    --out-geometry`` writes) moves further from nominal than its data support: moved more than a
+    tenth of its prior scale where the data give it no standard deviation, or more than its prior
+    scale where its standard deviation exceeds that scale. One phrase per parameter."""
+    import json
+    import os
+
+    import numpy as np
+
+    from ..mechanism._registry import load_mechanism
+    from ._common import CALIBRATION_KEY
+
+    if not (os.path.isfile(path) and path.endswith(".json")):
+        return []
+    with open(path, encoding="utf-8-sig") as f:
+        record = json.load(f).get(CALIBRATION_KEY)
+    if not isinstance(record, dict):
+        return []
+    params = np.asarray(load_mechanism(path).params)
+    out = []
+    for name, unit, p, p0, s, prior in zip(record["param_names"], record["param_units"], params,
+                                           record["nominal_params"], record["param_std"], record["prior_scale"],
+                                           strict=True):
+        move = abs(float(p) - p0)
+        std = np.inf if s is None else s
+        if (s is None and move > 0.1 * prior) or (std > prior and move > prior):
+            shown = "no std (not determined)" if s is None else f"std {s:.3g} {unit}"
+            out.append(f"{name} moved {move:.3g} {unit} from nominal with {shown} against a prior scale of "
+                       f"{prior:.3g} {unit}")
+    return out
+
+
+def _check_supported(args: argparse.Namespace) -> None:
+    bad = unsupported_moves(args.geometry)
+    if not bad:
+        return
+    text = (f"{args.geometry!r} moves {len(bad)} parameter(s) further than its calibration data support: "
+            f"{'; '.join(bad[:6])}{' …' if len(bad) > 6 else ''}. A controller built on it is right only near the "
+            "calibration poses; recalibrate holding the undetermined directions at nominal (stewart-jax calibrate "
+            "does), or pass --allow-unsupported to export it anyway")
+    if not args.allow_unsupported:
+        raise ValueError(text)
+    print(f"WARNING: {text}", file=sys.stderr)
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("export", help="write a geometry as JSON or as LinuxCNC genhexkins settings")
     p.add_argument("geometry", help="a preset name or a JSON/TOML geometry file")
@@ -61,5 +108,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", help="output file (default: standard output); for linuxcnc, a directory")
     p.add_argument("--name", default="hexapod", help="linuxcnc: the files' stem (NAME.ini, NAME.hal, NAME.tbl)")
     p.add_argument("--stroke-limits-mm", help="linuxcnc: MIN,MAX of the reading (mm) for a geometry without them")
+    p.add_argument("--allow-unsupported", action="store_true",
+                   help="export a calibrated geometry even where it moves a parameter further than its data "
+                        "support (a warning instead of a refusal)")
     p.set_defaults(func=run)
     return p

@@ -37,6 +37,15 @@ from jaxtyping import Float
 
 from .._units import report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
+from ._determined import (
+    Determination,
+    describe_held,
+    determine,
+    prior_scale,
+    refine_in_subspace,
+    restricted_covariance,
+    total_std,
+)
 from ._identifiability import identifiability_report, pose_noise_covariance, stroke_noise_covariance
 from ._problem import CalibrationData
 
@@ -58,7 +67,9 @@ class CalibrationAssessment(NamedTuple):
     """What the data of a calibration supports (see the module docstring).
 
     - ``status``: ``"ok"``, ``"nonfinite"`` (a residual is NaN or infinite), ``"rank_deficient"``
-      (some parameters are not identifiable) or ``"poor_fit"`` (the χ² test fails).
+      (some parameters are not identifiable, or were moved along directions the data do not
+      determine), ``"partly_determined"`` (those directions held at nominal, each std against the
+      truth including the prior's share) or ``"poor_fit"`` (the χ² test fails).
     - ``rank``, ``n_params``, ``condition_number``: of the identification Jacobian.
     - ``identifiable``: ``Bool[np.ndarray, "n"]``.
     - ``param_std``: ``Float[np.ndarray, "n"]`` (the parameters' units), NaN where not identifiable.
@@ -106,11 +117,21 @@ def duplicate_rows(poses: Float[np.ndarray, "m 6"]) -> list[list[int]]:
 
 
 def assess_calibration(
-    calibrated: AbstractMechanism, data: CalibrationData, sigma_um: float = 0.1, sigma_arcsec: float = 0.1
+    calibrated: AbstractMechanism,
+    data: CalibrationData,
+    sigma_um: float = 0.1,
+    sigma_arcsec: float = 0.1,
+    *,
+    nominal: AbstractMechanism | None = None,
 ) -> CalibrationAssessment:
     """Assess a calibration: ``calibrated`` is the mechanism at the fitted parameters, ``data``
     the measurements it was fitted to, ``sigma_um``/``sigma_arcsec`` the pose noise (µm, ″) the
-    data were measured with."""
+    data were measured with, ``nominal`` the geometry it started from.
+
+    Directions the data determine no better than the parameters' prior scales (``_determined.py``)
+    are ``partly_determined`` when the calibration held them at ``nominal``
+    (:func:`hold_undetermined`); a calibration that moved along them, or one assessed without its
+    ``nominal``, is ``rank_deficient`` and those parameters get no standard deviation."""
     if not (np.isfinite(sigma_um) and np.isfinite(sigma_arcsec) and sigma_um >= 0 and sigma_arcsec >= 0):
         raise ValueError(f"the pose noise must be finite and >= 0, got sigma_um={sigma_um}, "
                          f"sigma_arcsec={sigma_arcsec}")
@@ -142,6 +163,7 @@ def assess_calibration(
     blind = np.sum(basis**2, axis=0) if basis.size else np.zeros(n)
     identifiable = blind <= IDENTIFIABLE_TOL
     std = np.where(identifiable, np.asarray(rep.param_std), np.nan)
+    cov = np.asarray(rep.param_cov)
     names = calibrated.param_names
     if rep.rank < n:
         lost = [names[k] for k in np.flatnonzero(~identifiable)]
@@ -150,6 +172,15 @@ def assess_calibration(
             f"{rep.condition_number:.3g}); not identifiable alone: {lost[:12]}{' …' if len(lost) > 12 else ''}. "
             "Their values are the starting ones plus an arbitrary share; measure more, and more varied, poses "
             "(stewart_jax.calibration.plan_poses_optimal chooses them)")
+    held = False
+    if rep.rank == n:
+        det, jac, noise = _determination(calibrated, poses, sigma_um, sigma_arcsec)
+        if nominal is not None:  # the directions hold_undetermined held
+            det = _determination(nominal, poses, sigma_um, sigma_arcsec)[0]
+        if det.n_determined < n:
+            held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
+            identifiable, std, cov, text = _held_report(det, jac, noise, names, calibrated.param_units, held)
+            warnings.append(text)
     chi2, whitened = _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rep.rank)
     dof = 6 * m - rep.rank
     gross = float(np.sqrt(whitened / (6 * m)))
@@ -176,10 +207,79 @@ def assess_calibration(
             "the file's lengths are in another unit (a file in metres shrinks every length 1000×)")
     poor = gross > GROSS_MISFIT_RATIO or (dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE))
     # a gross misfit outranks rank deficiency: the numbers are wrong, not only under-determined
-    status = ("poor_fit" if gross > GROSS_MISFIT_RATIO else "rank_deficient" if rep.rank < n
-              else "poor_fit" if poor else "ok")
+    undetermined = rep.rank < n or (not held and not np.all(identifiable))
+    status = ("poor_fit" if gross > GROSS_MISFIT_RATIO else "rank_deficient" if undetermined
+              else "poor_fit" if poor else "partly_determined" if held else "ok")
     return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
-                                 chi2, dof, p, ratio, warnings, np.asarray(rep.param_cov))
+                                 chi2, dof, p, ratio, warnings, cov)
+
+
+def _determination(calibrated, poses, sigma_um, sigma_arcsec):
+    """The determined directions of the pose model, its stroke Jacobian ``(m, 6, n)`` and the
+    stroke noise covariance ``(m, 6, 6)`` (whitening by the pose noise through ``J_P``)."""
+    from ._identifiability import identification_jacobian
+
+    m, n = len(poses), calibrated.n_params
+    noise = np.asarray(stroke_noise_covariance(calibrated, jnp.asarray(poses),
+                                               pose_noise_covariance(sigma_um, sigma_arcsec)))
+    noise = noise + np.eye(6) * 1e-12 * np.trace(noise, axis1=1, axis2=2)[:, None, None] / 6
+    jac = np.asarray(identification_jacobian(calibrated, jnp.asarray(poses))).reshape(m, 6, n)
+    jw = np.linalg.solve(np.linalg.cholesky(noise), jac).reshape(6 * m, n)
+    return determine(jw, prior_scale(calibrated.param_units)), jac, noise
+
+
+HELD_TOL = 1e-3
+"""A calibration holds a direction at nominal when its update along it is below this many prior scales."""
+
+
+def _is_held(det: Determination, update: np.ndarray) -> bool:
+    return bool(np.all(np.abs(det.held @ (update / det.scale)) <= HELD_TOL))
+
+
+def _held_report(det, jac, noise, names, units, held: bool):
+    """``identifiable``, ``param_std``, ``param_cov`` and the warning of a fit with held directions."""
+    share = det.held_share()
+    alone = share <= 0.01
+    k, n = det.n_determined, len(det.scale)
+    where = describe_held(det, names, units)
+    scales = "1 mm for a length, 1 mrad for an angle"
+    if held:
+        cov = restricted_covariance(det, jac, noise)
+        return alone, total_std(det, cov), cov, (
+            f"the data determine {k} of {n} parameter directions to better than the prior scale ({scales}); "
+            f"the other {n - k} are held at nominal: {'; '.join(where[:6])}{' …' if len(where) > 6 else ''}. "
+            "Each std includes the prior's share on the held directions; measure more varied poses to determine them")
+    cov = np.full((n, n), np.nan)
+    std = np.full(n, np.nan)
+    return np.zeros(n, bool), std, cov, (
+        f"the data determine {k} of {n} parameter directions to better than the prior scale ({scales}); "
+        f"the calibration moved along the other {n - k}, where its values are arbitrary: {'; '.join(where[:6])}"
+        f"{' …' if len(where) > 6 else ''}. Hold them at nominal (stewart_jax.calibration.hold_undetermined; the "
+        "command line does) before using the geometry")
+
+
+def hold_undetermined(
+    nominal: AbstractMechanism, data: CalibrationData, params, sigma_um: float = 0.1, sigma_arcsec: float = 0.1
+) -> np.ndarray:
+    """``params`` with the directions the data do not determine held at ``nominal``'s values
+    (``_determined.py``): the least-squares fit of the stroke residual over the determined
+    directions, from the projection of ``params``. The determination is made at ``nominal``."""
+    from ._identifiability import identification_jacobian
+    from ._problem import stroke_residuals
+
+    poses = np.asarray(data.poses)
+    det, _, _ = _determination(nominal, poses, sigma_um, sigma_arcsec)
+    u0 = np.asarray(nominal.params)
+    if det.n_determined == nominal.n_params:
+        return np.asarray(params)
+
+    def residuals(u):
+        return np.asarray(stroke_residuals(jnp.asarray(u), data, nominal))
+
+    def jacobian(u):
+        return -np.asarray(identification_jacobian(nominal.with_params(jnp.asarray(u)), jnp.asarray(poses)))
+
+    return refine_in_subspace(residuals, jacobian, u0, np.asarray(params), det)
 
 
 def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> Float[np.ndarray, "m 6"]:

@@ -52,6 +52,7 @@ from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._assessment import FIT_P_VALUE, IDENTIFIABLE_TOL, RANK_RTOL, CalibrationAssessment
 from ._csv import DIRECTION_COLUMNS, STROKE_COLUMNS, csv_rows, format_degrees, parse_degrees
+from ._determined import Determination, describe_held, determine, prior_scale, restricted_covariance, total_std
 
 POINT_COLUMNS = ("pose", "target", *STROKE_COLUMNS, "x", "y", "z")
 """The columns a points file must have (``pose`` = ``ref`` on a base reference's row)."""
@@ -555,15 +556,22 @@ def _problem(data, targets, nominal, range_um, across_um_per_m, starts) -> _Poin
 
 
 @eqx.filter_jit
-def _solve(problem: _PointProblem, nominal: AbstractMechanism, y0, max_steps: int, initial_damping: float):
+def _jacobian_at(problem: _PointProblem, nominal: AbstractMechanism, y):
+    return problem.jacobian(y, nominal)
+
+
+@eqx.filter_jit
+def _solve(problem: _PointProblem, nominal: AbstractMechanism, y0, basis, max_steps: int, initial_damping: float):
+    """The fit over ``y = y0 + basis·a`` (the determined directions; ``_determined.py``)."""
     from ..optimise._batched_lm import BatchedLevenbergMarquardt
 
     solver = BatchedLevenbergMarquardt(max_steps=max_steps, initial_damping=initial_damping)
-    res = solver.run(lambda y, p: p.residuals(y, nominal), y0, args=problem,
-                     jac=lambda y, p: p.jacobian(y, nominal))
-    pts, _, poses = problem.predicted(nominal, res.params)
-    rot, t = problem.registration(res.params)
-    return res, problem.jacobian(res.params, nominal), problem.residuals(res.params, nominal), pts, poses, rot, t
+    res = solver.run(lambda a, p: p.residuals(y0 + basis @ a, nominal), jnp.zeros(basis.shape[1]), args=problem,
+                     jac=lambda a, p: p.jacobian(y0 + basis @ a, nominal) @ basis)
+    y = y0 + basis @ res.params
+    pts, _, poses = problem.predicted(nominal, y)
+    rot, t = problem.registration(y)
+    return res, y, problem.jacobian(y, nominal), problem.residuals(y, nominal), pts, poses, rot, t
 
 
 def calibrate_points(
@@ -591,13 +599,15 @@ def calibrate_points(
     starts = start_values(data, targets, nominal)
     problem = _problem(data, targets, nominal, range_um, across_um_per_m, starts)
     y0 = jnp.concatenate([nominal.params, jnp.zeros(6)])
-    res, jac, r, pts, poses, rot, t = _solve(problem, nominal, y0, max_steps, _INITIAL_DAMPING)
-    y = np.asarray(res.params)
     n_pts, n_pad = len(data.points), problem.points.shape[0]
     rows = np.concatenate([np.arange(3 * n_pts), 3 * n_pad + np.arange(3 * len(data.references))])
+    det = determine(np.asarray(_jacobian_at(problem, nominal, y0))[rows], prior_scale(nominal.param_units, 6))
+    res, y, jac, r, pts, poses, rot, t = _solve(problem, nominal, y0, jnp.asarray(det.step_basis), max_steps,
+                                                _INITIAL_DAMPING)
+    y = np.asarray(y)
     r = np.asarray(r)[rows]
     names = (*nominal.param_names, "reg_x", "reg_y", "reg_z", "reg_rx", "reg_ry", "reg_rz")
-    assessment = _assess(np.asarray(jac)[rows], r, names)
+    assessment = _assess(np.asarray(jac)[rows], r, names, det)
     return PointCalibration(
         mechanism=nominal.with_params(jnp.asarray(y[:n])), params=y[:n], rotation=np.asarray(rot),
         translation=np.asarray(t), poses=np.asarray(poses)[: data.n_poses], start_poses=starts[2],
@@ -605,8 +615,9 @@ def calibrate_points(
         assessment=assessment, residuals_um=(data.points - np.asarray(pts)[:n_pts]) / UM)
 
 
-def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...]) -> CalibrationAssessment:
-    """χ², rank, identifiability and covariance of a whitened least-squares fit."""
+def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...], det: Determination) -> CalibrationAssessment:
+    """χ², rank, identifiability and covariance of a whitened least-squares fit whose update was
+    restricted to ``det``'s determined directions."""
     m_rows, n = jac.shape
     warnings: list[str] = []
     if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(r))):
@@ -622,11 +633,12 @@ def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...]) -> Calibrati
     rank = int(np.sum(s > RANK_RTOL * s[0]))
     null = vt[rank:]
     identifiable = np.sum(null**2, axis=0) <= IDENTIFIABLE_TOL
-    inv = np.where(np.arange(len(s)) < rank, 1.0 / np.where(s > 0, s, 1.0) ** 2, 0.0)
-    cov = (vt.T * inv) @ vt
-    std = np.where(identifiable, np.sqrt(np.maximum(np.diag(cov), 0.0)), np.nan)
+    cov = restricted_covariance(det, jac[:, None, :])
+    std = np.where(identifiable, total_std(det, cov), np.nan)
+    if rank == n:
+        identifiable = det.held_share() <= 0.01
     chi2 = float(r @ r)
-    dof = m_rows - rank
+    dof = m_rows - det.n_determined
     p = float(gammaincc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")
     low = float(gammainc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")
     ratio = float(np.sqrt(chi2 / dof)) if dof > 0 else float("nan")
@@ -644,8 +656,16 @@ def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...]) -> Calibrati
         warnings.append(f"the point residuals are smaller than the stated tracker noise allows (χ² = {chi2:.4g} on "
                         f"{dof} degrees of freedom, p = {low:.2g}): the noise is overstated, and every reported "
                         "uncertainty with it")
+    if rank == n and det.n_determined < n:
+        held = describe_held(det, names, ())
+        warnings.append(f"the points determine {det.n_determined} of {n} directions of the parameters and "
+                        "registration to better than the prior scale (1 mm for a length, 1 mrad for an angle); the "
+                        f"other {n - det.n_determined} are held at nominal: {'; '.join(held[:6])}"
+                        f"{' …' if len(held) > 6 else ''}. Each std includes the prior's share on the held "
+                        "directions; measure more varied poses to determine them")
     poor = dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE)
-    status = "rank_deficient" if rank < n else "poor_fit" if poor else "ok"
+    status = ("rank_deficient" if rank < n else "poor_fit" if poor
+              else "partly_determined" if det.n_determined < n else "ok")
     return CalibrationAssessment(status, rank, n, cond, identifiable, std, [], [], chi2, dof, p, ratio, warnings, cov)
 
 

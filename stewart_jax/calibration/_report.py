@@ -57,6 +57,9 @@ def calibration_report(
                     "the result.",
         "rank_deficient": "**The data do not identify every parameter** — see the warnings; the unidentified "
                           "parameters kept arbitrary values.",
+        "partly_determined": "The residuals match the stated noise; the parameter directions the data do not "
+                             "determine are held at nominal (see the warnings), and each std includes the prior's "
+                             "share on them.",
         "nonfinite": "**The calibration failed** (non-finite residuals).",
     }[a.status]
     lines += [f"Solver status: `{result['status']}`; data status: `{a.status}`. {verdict}", ""]
