@@ -64,8 +64,10 @@ def test_cli_calibration_recovers_the_true_mechanism(run):
     seen = data.targets_per_pose()
     assert out["poses_with_1_or_2_targets"] == int(np.sum(seen < 3)) >= 10  # used, not dropped
     assert out["n_points"] == len(data.points) == int(seen.sum())
-    assert out["data_status"] == "ok" and out["status"] == "success"
-    assert out["dof"] == 3 * (len(data.points) + len(data.references)) - 48
+    assert out["data_status"] in ("ok", "partly_determined") and out["status"] == "success"
+    k = out["determined_directions"]
+    assert (k == 48) == (out["data_status"] == "ok")
+    assert out["dof"] == 3 * (len(data.points) + len(data.references)) - k
     assert 1e-3 < out["p_value"] < 1 - 1e-3
     cal, nominal, true = load_mechanism(run["dir"] / "cal.json"), run["nominal"], run["true"]
     targets = jnp.asarray(np.random.default_rng(0).uniform(-1, 1, (30, 6)) * np.array([5, 5, 5, 1e-3, 1e-3, 1e-3]))
@@ -104,8 +106,10 @@ def test_whitening_inverts_the_tracker_covariance():
 
 
 def test_predicted_uncertainty_covers_the_error(run):
-    """20 noise draws on the same poses and targets: the estimate's Mahalanobis distance from the
-    truth under the predicted covariance is χ²(48)-distributed when the uncertainty is right."""
+    """20 noise draws on the same poses and targets: in the directions the points determine (the
+    others are held at nominal), the estimate's Mahalanobis distance from the truth under the
+    predicted covariance is χ²(k)-distributed when the uncertainty is right (the truncated
+    least-squares estimate is unbiased there whatever the truth's held part)."""
     data, targets, nominal, true = run["data"], run["targets"], run["nominal"], run["true"]
     rot, t = default_registration(nominal)
     poses = np.asarray(forward_kinematics(true, jnp.asarray(data.strokes)).poses)
@@ -115,7 +119,6 @@ def test_predicted_uncertainty_covers_the_error(run):
     refs_exact = targets.base[data.reference_index] @ rot.T + t
     chol = [np.linalg.cholesky(np_covariance(x, RANGE_UM, ACROSS_UM_PER_M)) for x in np.vstack([exact, refs_exact])]
     rng = np.random.default_rng(7)
-    limit = chi2_dist.ppf(0.99, 48)
     inside, p_values = 0, []
     for _ in range(20):
         noisy = np.vstack([exact, refs_exact]) + np.stack([c @ rng.normal(size=3) for c in chol])
@@ -127,7 +130,10 @@ def test_predicted_uncertainty_covers_the_error(run):
         reg_true = np.concatenate([t - t0, np.asarray(euler_angles(jnp.asarray(rot0.T @ rot)))])
         reg_fit = np.concatenate([cal.translation - t0, np.asarray(euler_angles(jnp.asarray(rot0.T @ cal.rotation)))])
         e = np.concatenate([cal.params - np.asarray(true.params), reg_fit - reg_true])
-        inside += float(e @ np.linalg.pinv(cal.assessment.param_cov, rcond=1e-14, hermitian=True) @ e) <= limit
+        det = cal.determination
+        b = det.determined / det.scale  # determined coordinates of a parameter vector
+        z, cov = b @ e, b @ cal.assessment.param_cov @ b.T
+        inside += float(z @ np.linalg.solve(cov, z)) <= chi2_dist.ppf(0.99, det.n_determined)
         p_values.append(cal.assessment.p_value)
     assert inside >= 19
     assert sum(p > 1e-3 for p in p_values) >= 19
@@ -222,3 +228,30 @@ def test_points_files_of_every_family(family, tmp_path):
     if nominal.reading_unit == "rad":
         value, converged = chi2(read_points_csv(tmp_path / "points.csv", targets).strokes)
         assert not converged or value > 100 * 3 * len(data.points)
+
+
+def test_calibrated_joints_near_the_truth_and_export_checks_support(run, tmp_path, capsys):
+    """The how-to's route ends in a geometry whose parameters lie within a few std of the truth
+    (each std at most the 1 mm prior scale) and which exports; a geometry moved where its data give
+    no support is refused in words, and exported with a warning on request."""
+    d = run["dir"]
+    cal, true = load_mechanism(d / "cal.json"), run["true"]
+    out = run["json"]
+    std = np.array(out["param_std"], dtype=float)
+    err = np.abs(np.asarray(cal.params) - np.asarray(true.params))
+    assert np.all(std <= 1.0 + 1e-9) and np.all(err <= 4 * std) and np.max(err) < 5.0
+    assert cli_main(["export", str(d / "cal.json"), "--format", "linuxcnc", "--out", str(tmp_path / "cnc"),
+                     "--stroke-limits-mm", "-20,20"]) == 0
+    record = json.loads((d / "cal.json").read_text())
+    moved = dict(record)
+    moved["platform"] = (np.asarray(record["platform"]) + [0.0, 0.0, 5.0]).tolist()
+    moved["_calibration"] = dict(record["_calibration"], param_std=[50.0] * len(std))
+    bad = tmp_path / "moved.json"
+    bad.write_text(json.dumps(moved))
+    capsys.readouterr()
+    assert cli_main(["export", str(bad), "--format", "linuxcnc", "--out", str(tmp_path / "cnc2"),
+                     "--stroke-limits-mm", "-20,20"]) != 0
+    assert "further than its calibration data support" in capsys.readouterr().err
+    assert not (tmp_path / "cnc2").exists()
+    assert cli_main(["export", str(bad), "--out", str(tmp_path / "g.json"), "--allow-unsupported"]) == 0
+    assert "WARNING" in capsys.readouterr().err

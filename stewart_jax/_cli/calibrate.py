@@ -184,6 +184,7 @@ def _assessment_keys(a) -> dict:
         "data_status": a.status,
         "warnings": a.warnings,
         "identification_rank": a.rank,
+        "determined_directions": a.n_determined,
         "identification_condition_number": a.condition_number,
         "identifiable": a.identifiable.tolist(),
         "param_std": [float(s) if np.isfinite(s) else None for s in a.param_std],

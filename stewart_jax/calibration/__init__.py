@@ -16,7 +16,7 @@ adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.2–§4.
   :func:`plan_poses`, :func:`random_poses` or :func:`validation_poses` within
   :func:`reachable_travel`; a true mechanism from :func:`perturbed`; a :class:`LaserTracker`
   from :func:`tracker_for`.
-- Trust and planning: :func:`assess_calibration`, :func:`identifiability_report`,
+- Trust and planning: :func:`assess_calibration`, :func:`hold_undetermined`, :func:`identifiability_report`,
   :func:`calibration_uncertainty`, :func:`predicted_control_error_std`,
   :func:`plan_poses_optimal`.
 - The laser tracker's own points: :func:`read_targets`, :func:`read_points_csv`,
@@ -25,7 +25,11 @@ adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.2–§4.
 
 
 from .._units import error_in_report_units as error_in_report_units
-from ._assessment import CalibrationAssessment as CalibrationAssessment, assess_calibration as assess_calibration
+from ._assessment import (
+    CalibrationAssessment as CalibrationAssessment,
+    assess_calibration as assess_calibration,
+    hold_undetermined as hold_undetermined,
+)
 from ._csv import read_csv as read_csv, write_csv as write_csv
 from ._identifiability import (
     IdentifiabilityReport as IdentifiabilityReport,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jax.scipy.special import gammainc, gammaincc
@@ -45,6 +46,7 @@ from ._determined import (
     refine_in_subspace,
     restricted_covariance,
     total_std,
+    within_prior,
 )
 from ._identifiability import identifiability_report, pose_noise_covariance, stroke_noise_covariance
 from ._problem import CalibrationData
@@ -98,6 +100,9 @@ class CalibrationAssessment(NamedTuple):
     rms_ratio: float
     warnings: list[str]
     param_cov: np.ndarray
+    n_determined: int | None = None
+    """How many parameter directions the data determine to better than their prior scales
+    (``None`` where not judged: a rank-deficient or non-finite fit)."""
 
 
 def duplicate_rows(poses: Float[np.ndarray, "m 6"]) -> list[list[int]]:
@@ -172,11 +177,12 @@ def assess_calibration(
             f"{rep.condition_number:.3g}); not identifiable alone: {lost[:12]}{' …' if len(lost) > 12 else ''}. "
             "Their values are the starting ones plus an arbitrary share; measure more, and more varied, poses "
             "(stewart_jax.calibration.plan_poses_optimal chooses them)")
-    held = False
+    held, n_det = False, None
     if rep.rank == n:
         det, jac, noise = _determination(calibrated, poses, sigma_um, sigma_arcsec)
         if nominal is not None:  # the directions hold_undetermined held
             det = _determination(nominal, poses, sigma_um, sigma_arcsec)[0]
+        n_det = det.n_determined
         if det.n_determined < n:
             held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
             identifiable, std, cov, text = _held_report(det, jac, noise, names, calibrated.param_units, held)
@@ -211,7 +217,7 @@ def assess_calibration(
     status = ("poor_fit" if gross > GROSS_MISFIT_RATIO else "rank_deficient" if undetermined
               else "poor_fit" if poor else "partly_determined" if held else "ok")
     return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
-                                 chi2, dof, p, ratio, warnings, cov)
+                                 chi2, dof, p, ratio, warnings, cov, n_det)
 
 
 def _determination(calibrated, poses, sigma_um, sigma_arcsec):
@@ -223,9 +229,9 @@ def _determination(calibrated, poses, sigma_um, sigma_arcsec):
     noise = np.asarray(stroke_noise_covariance(calibrated, jnp.asarray(poses),
                                                pose_noise_covariance(sigma_um, sigma_arcsec)))
     noise = noise + np.eye(6) * 1e-12 * np.trace(noise, axis1=1, axis2=2)[:, None, None] / 6
-    jac = np.asarray(identification_jacobian(calibrated, jnp.asarray(poses))).reshape(m, 6, n)
+    jac = np.asarray(eqx.filter_jit(identification_jacobian)(calibrated, jnp.asarray(poses))).reshape(m, 6, n)
     jw = np.linalg.solve(np.linalg.cholesky(noise), jac).reshape(6 * m, n)
-    return determine(jw, prior_scale(calibrated.param_units)), jac, noise
+    return within_prior(determine(jw, prior_scale(calibrated.param_units)), jac, noise), jac, noise
 
 
 HELD_TOL = 1e-3
@@ -273,11 +279,14 @@ def hold_undetermined(
     if det.n_determined == nominal.n_params:
         return np.asarray(params)
 
+    residual_fn = eqx.filter_jit(lambda u, d, mech: stroke_residuals(u, d, mech))
+    jacobian_fn = eqx.filter_jit(lambda u, p, mech: -identification_jacobian(mech.with_params(u), p))
+
     def residuals(u):
-        return np.asarray(stroke_residuals(jnp.asarray(u), data, nominal))
+        return np.asarray(residual_fn(jnp.asarray(u), data, nominal))
 
     def jacobian(u):
-        return -np.asarray(identification_jacobian(nominal.with_params(jnp.asarray(u)), jnp.asarray(poses)))
+        return np.asarray(jacobian_fn(jnp.asarray(u), jnp.asarray(poses), nominal))
 
     return refine_in_subspace(residuals, jacobian, u0, np.asarray(params), det)
 

@@ -91,6 +91,22 @@ def determine(jw: Float[np.ndarray, "rows n"], scale: Float[np.ndarray, " n"]) -
     return Determination(np.asarray(scale, dtype=np.float64), sv, vt[:k], vt[k:])
 
 
+def within_prior(det: Determination, jac: Float[np.ndarray, "m 6 n"], noise_cov: Float[np.ndarray, "m 6 6"]):
+    """``det`` with its weakest determined directions moved to the held ones until no parameter's
+    standard deviation about the truth (:func:`total_std`) under an *unweighted* estimator (the
+    sandwich of :func:`restricted_covariance`) exceeds ``DETERMINED_STD`` prior scales.
+
+    NOTE: the determination is made on the whitened (weighted) problem, whose covariance bounds
+    the weighted estimator's; an unweighted fit can be less precise along the same directions."""
+    while det.n_determined:
+        std = total_std(det, restricted_covariance(det, jac, noise_cov))
+        if np.all(std <= DETERMINED_STD * det.scale * (1 + 1e-9)):
+            break
+        k = det.n_determined - 1
+        det = det._replace(determined=det.determined[:k], held=np.concatenate([det.determined[k:], det.held]))
+    return det
+
+
 def restricted_covariance(
     det: Determination,
     jac: Float[np.ndarray, "m 6 n"],

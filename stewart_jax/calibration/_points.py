@@ -501,6 +501,8 @@ class PointCalibration(NamedTuple):
       :class:`CalibrationAssessment` of the point model (χ², rank, identifiability, parameter
       covariance with the registration's six parameters last, ``n + 6`` of them).
     - ``residuals_um``: ``Float[ndarray, "n 3"]``, measured minus predicted platform points (µm).
+    - ``determination``: the directions of ``[u, registration]`` the points determine to better than
+      their prior scales, and those held at nominal (``_determined.py``).
     """
 
     mechanism: AbstractMechanism
@@ -515,6 +517,7 @@ class PointCalibration(NamedTuple):
     chi2: float
     assessment: CalibrationAssessment
     residuals_um: np.ndarray
+    determination: Determination | None = None
 
 
 _PAD_POINTS, _PAD_POSES = 64, 32
@@ -612,7 +615,7 @@ def calibrate_points(
         mechanism=nominal.with_params(jnp.asarray(y[:n])), params=y[:n], rotation=np.asarray(rot),
         translation=np.asarray(t), poses=np.asarray(poses)[: data.n_poses], start_poses=starts[2],
         fitted=starts[3], status=status_name(res.status), n_steps=int(res.n_evaluations), chi2=float(r @ r),
-        assessment=assessment, residuals_um=(data.points - np.asarray(pts)[:n_pts]) / UM)
+        assessment=assessment, residuals_um=(data.points - np.asarray(pts)[:n_pts]) / UM, determination=det)
 
 
 def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...], det: Determination) -> CalibrationAssessment:
@@ -666,7 +669,8 @@ def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...], det: Determi
     poor = dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE)
     status = ("rank_deficient" if rank < n else "poor_fit" if poor
               else "partly_determined" if det.n_determined < n else "ok")
-    return CalibrationAssessment(status, rank, n, cond, identifiable, std, [], [], chi2, dof, p, ratio, warnings, cov)
+    return CalibrationAssessment(status, rank, n, cond, identifiable, std, [], [], chi2, dof, p, ratio, warnings, cov,
+                                 det.n_determined)
 
 
 def implied_point_pose_errors(
