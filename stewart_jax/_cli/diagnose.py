@@ -37,7 +37,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         raise ValueError("--targets and --tracker-sigma-um are for a points file (one with a 'target' column)")
     geometry = load_mechanism(args.geometry)
     data = read_csv(args.file, reading_unit=geometry.reading_unit)
-    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, _reading_sigma(args, geometry))
+    reading = "sigma_reading_um" if geometry.reading_unit == "mm" else "sigma_reading_urad"
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, **{reading: _reading_sigma(args, geometry)})
     report = diagnose(
         data,
         model,
@@ -126,7 +127,10 @@ def _finish(args: argparse.Namespace, report, out: dict) -> int:
 
 def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     """``diagnose RECORD.csv --geometry fast``: the workflow on a record of the FAST cabin's free
-    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model)."""
+    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model).
+
+    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the options,
+    read the record, build the model, diagnose, print, write), each a few lines."""
     import numpy as np
 
     from ..discrepancy import diagnose
