@@ -46,7 +46,10 @@ def tracker_sigma(args) -> tuple[float, float]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``."""
+    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``.
+
+    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the outputs,
+    read, calibrate, assess, print, write), each a few lines that read best in sequence."""
     check_outputs(args, json="--json", out_geometry="--out-geometry", report="--report")
     if args.targets is None:
         raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
