@@ -68,7 +68,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 def _diagnose_points(args: argparse.Namespace, effects) -> int:
     """``diagnose POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``: the workflow on
     the tracker's points, with its noise model (:func:`~stewart_jax.discrepancy.points_model`)."""
-    from ..calibration._points import read_points_csv, read_targets
+    from ..calibration._points_io import read_points_csv, read_targets
     from ..discrepancy import diagnose, point_rows, points_model
     from ..mechanism._registry import load_mechanism
     from ._points import tracker_sigma
