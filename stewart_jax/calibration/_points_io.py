@@ -70,6 +70,9 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
 
     The pose CSV's optional per-pose columns ``dir1..dir6`` (±1, all six), ``temperature`` (°C) and
     ``time`` (s) are read when present; rows of one pose repeat them, as they repeat the readings.
+
+    NOTE: over 80 lines: one pass over the rows with each check where a row first allows it, so
+    that every error names its line; split, the checks would need the row bookkeeping passed around.
     """
     angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
     rows, header = csv_rows(path)
