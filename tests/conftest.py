@@ -29,6 +29,7 @@ SLOW_FILES_FIRST = (
     "test_docs.py",  # the strict build, which executes the six notebooks
     "test_discrepancy.py",
     "test_discrepancy_points.py",  # about 4 min: seven diagnoses of tracker points (-O0, load 10)
+    "test_recipes.py",  # 2–3 min: the registry-driven tests in a fresh interpreter on a copy of the package
     "test_solvers.py",
     "test_comparison.py",
     "test_ups.py",
