@@ -10,7 +10,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from . import calibrate, diagnose, export, fast, simulate, study
+from . import calibrate, diagnose, export, fast, lut, simulate, study
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     diagnose.add_diagnose_parser(sub)
     fast.add_fast_parser(sub)
     export.add_parser(sub)
+    lut.add_parser(sub)
     return parser
 
 
