@@ -159,7 +159,7 @@ def test_campaign_sign_convention_is_required_and_applied(tmp_path):
 def test_simulate_campaign_fit_check_through_the_command_line(tmp_path):
     camp, lut, js = tmp_path / "camp.csv", tmp_path / "lut.yaml", tmp_path / "fit.json"
     assert main(["simulate", "--campaign", "--truth", str(V7), "--out", str(camp), "--sigma-um", "5",
-                 "--sigma-arcsec", "1", "--elevations-deg", "0:90:10", "--rotations-deg", "-90:90:15"]) == 0
+                 "--sigma-arcsec", "1", "--elevations-deg", "0:90:10", "--rotations-deg=-90:90:15"]) == 0
     assert main(["lut", "fit", str(camp), "--out", str(lut), "--json", str(js)]) == 0
     doc = json.loads(js.read_text())
     assert set(doc["axes"]) == set("xyzuvw") and "prediction_std_max_um" in doc["axes"]["x"]
