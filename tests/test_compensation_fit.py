@@ -37,14 +37,16 @@ def truth():
 
 def oracle_rms(campaign, truth, e, r):
     """Held-out RMS error against the truth of a least-squares fit that knows each axis's true
-    polynomial shape (the truth table's own 2-D degrees)."""
+    polynomial shape (the truth table's own 2-D degrees, its trailing zero rows and columns
+    left out), in variables scaled to [-1, 1]."""
     c = np.asarray(truth.elevation_rotation)
     err = []
     for i in range(6):
-        de, dr = c.shape[1] - 1, c.shape[2] - 1
-        a = polyvander2d(campaign.elevation_deg, campaign.rotation_deg, (de, dr))
+        rows, cols = np.flatnonzero(np.any(c[i] != 0, 1)), np.flatnonzero(np.any(c[i] != 0, 0))
+        deg = (rows.max() if rows.size else 0, cols.max() if cols.size else 0)
+        a = polyvander2d(campaign.elevation_deg / 90, campaign.rotation_deg / 90, deg)
         coef = np.linalg.lstsq(a, campaign.offsets[:, i], rcond=None)[0]
-        pred = polyvander2d(e, r, (de, dr)) @ coef
+        pred = polyvander2d(e / 90, r / 90, deg) @ coef
         err.append(np.sqrt(np.mean((pred - np.asarray(truth.offsets(e, r))[:, i]) ** 2)))
     return np.array(err)
 
@@ -58,11 +60,11 @@ def test_fit_recovers_the_v7_table_within_its_uncertainty(truth, seed):
     err = np.sqrt(np.mean((np.asarray(fit.table.offsets(e, r)) - np.asarray(truth.offsets(e, r))) ** 2, axis=0))
     oracle = oracle_rms(camp, truth, e, r)
     for i, a in enumerate(fit.axes):
-        # within 2× the error of the fit that knows the shapes, and within 2.5× its own stated
-        # prediction σ (RMS over the domain); w is zero in the truth: both are noise-level
-        assert err[i] <= 2.0 * max(oracle[i], 1e-12) or err[i] < 0.3 * a.prediction_std_max + 1e-5, (
-            a.axis, err, oracle)
-        assert err[i] <= 2.5 * a.prediction_std_rms + (1e-5 if a.axis == "w" else 0.0), (a.axis, err[i], a)
+        # within 2× the error of the fit that knows the shapes (measured over 5 seeds and 5
+        # campaign designs: at most 1.7×), and within 2.5× its own stated prediction σ (RMS over
+        # the domain)
+        assert err[i] <= 2.0 * oracle[i] + 1e-12, (a.axis, err, oracle)
+        assert err[i] <= 2.5 * a.prediction_std_rms + 1e-12, (a.axis, err[i], a)
         for term in a.terms:
             assert term.label in ("solid", "marginal", "noise")
             assert term.kept or term.label == "noise"

@@ -2,14 +2,16 @@
 error, coefficient and prediction uncertainties, and only the coefficients the data support.
 
 Stone M., 1974, "Cross-validatory choice and assessment of statistical predictions" (J. R. Stat.
-Soc. B 36): the degrees in elevation, rotator angle and temperature are those of the lowest
-K-fold held-out RMS. The coefficients are ordinary least squares with covariance ``s²·(AᵀA)⁻¹``,
-``s²`` the residual variance. Coefficients are labelled by ``t = |c|/σ_c`` as the calibration
-reports of Nguyen T. D. et al., 2023, "FIGAROH: a Python toolbox for dynamic identification and
-geometric calibration of robots and humanoids" (IEEE-RAS Humanoids) label identified parameters:
-``solid`` (t ≥ 5), ``marginal`` (2 ≤ t < 5), ``noise`` (t < 2). Backward elimination drops the
-``noise`` coefficient of smallest t while the held-out RMS does not grow by more than 0.2 %: only
-what the data support is deployed.
+Soc. B 36): the degrees in elevation, rotator angle and temperature are chosen by K-fold
+held-out error, with the one-standard-error rule of Breiman L., Friedman J., Olshen R., Stone C.,
+1984, "Classification and Regression Trees": the smallest model whose held-out mean squared
+error is within one standard error of the lowest. The coefficients are ordinary least squares
+with covariance ``s²·(AᵀA)⁻¹``, ``s²`` the residual variance. Coefficients are labelled by
+``t = |c|/σ_c`` as the calibration reports of Nguyen T. D. et al., 2023, "FIGAROH: a Python
+toolbox for dynamic identification and geometric calibration of robots and humanoids"
+(IEEE-RAS Humanoids) label identified parameters: ``solid`` (t ≥ 5), ``marginal`` (2 ≤ t < 5),
+``noise`` (t < 2). Backward elimination drops the ``noise`` coefficient of smallest t while the
+held-out RMS does not grow by more than 0.2 %: only what the data support is deployed.
 
 NOTE: the basis is the monomials of the controller's rule in scaled variables (elevation/90,
 rotation/the campaign's largest |rotation|, temperature/its largest |value|), so that the normal
@@ -96,15 +98,41 @@ def _folds(n: int, folds: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).permutation(n) % folds
 
 
-def _cv_rms(a: np.ndarray, y: np.ndarray, fold: np.ndarray, folds: int) -> float:
-    if a.shape[1] == 0:
-        return float(np.sqrt(np.mean(y**2)))
-    sq = 0.0
-    for f in range(folds):
-        test = fold == f
-        coef = np.linalg.lstsq(a[~test], y[~test], rcond=None)[0]
-        sq += float(np.sum((a[test] @ coef - y[test]) ** 2))
-    return float(np.sqrt(sq / len(y)))
+class _CrossValidation:
+    """K-fold held-out RMS of least-squares fits on column subsets of one design matrix.
+
+    NOTE: each fold's Gram matrix ``AᵀA`` of the full design is formed once; a candidate's fit
+    is then a small solve on its rows and columns. In the scaled basis (variables in [−1, 1])
+    the Gram matrices of the degrees tried stay below ~1e9 in condition number, far from
+    float64's limit for a score; the deployed fit itself is solved by SVD (:func:`_ols`)."""
+
+    def __init__(self, a: np.ndarray, fold: np.ndarray, folds: int):
+        self.a = a
+        self.test = [fold == f for f in range(folds)]
+        self.gram = [a[~m].T @ a[~m] for m in self.test]
+        self.rhs: list[np.ndarray] = []
+        self.y = np.zeros(len(a))
+
+    def target(self, y: np.ndarray) -> None:
+        self.y = y
+        self.rhs = [self.a[~m].T @ y[~m] for m in self.test]
+
+    def squared_errors(self, cols: list[int]) -> np.ndarray:
+        """Each attitude's squared held-out error."""
+        y = self.y
+        if not cols:
+            return y**2
+        sq = np.empty(len(y))
+        for m, g, b in zip(self.test, self.gram, self.rhs, strict=True):
+            try:
+                coef = np.linalg.solve(g[np.ix_(cols, cols)], b[cols])
+            except np.linalg.LinAlgError:
+                coef = np.linalg.lstsq(self.a[~m][:, cols], y[~m], rcond=None)[0]
+            sq[m] = (self.a[m][:, cols] @ coef - y[m]) ** 2
+        return sq
+
+    def rms(self, cols: list[int]) -> float:
+        return float(np.sqrt(np.mean(self.squared_errors(cols))))
 
 
 def _ols(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -133,12 +161,14 @@ def fit_table(
     seed: int = 0,
     drop: bool = True,
     rotation_range_deg: tuple[float, float] | None = None,
+    one_se: bool = True,
 ) -> TableFit:
     """Fit a schema-v7 table to ``campaign`` (offsets in the correction sign).
 
     Per axis, every ``(de, dr, dt) ≤ max_degrees`` (elevation, rotator angle, temperature; the
     temperature degree is 0 unless the campaign's temperature varies) is scored by the
-    ``folds``-fold held-out RMS; the best is fitted on all attitudes; ``noise`` coefficients are
+    ``folds``-fold held-out RMS; the smallest within one standard error of the best (``one_se``;
+    else the best) is fitted on all attitudes; ``noise`` coefficients are
     then dropped while the held-out RMS allows (``drop``). The predictions' σ is evaluated over
     elevation [0, 90] × ``rotation_range_deg`` (default: the campaign's) × the campaign's
     temperatures. The temperature polynomial's range is the campaign's: outside it the
@@ -164,28 +194,36 @@ def fit_table(
                                                               range(max_dt + 1))]
     all_terms = _candidate_terms(max_degrees[0], max_degrees[1], max_dt)
     full = _design(e, r, t, scales, all_terms)
+    cv = _CrossValidation(full, fold, folds)
     col = {term: i for i, term in enumerate(all_terms)}
     n_train = n - int(np.ceil(n / folds))
     axes = []
     for i, axis in enumerate(AXES):
         y = campaign.offsets[:, i]
-        scores = {}
+        cv.target(y)
+        scores, sq = {}, {}
         for deg in ranked:
             terms = _candidate_terms(*deg)
             if len(terms) >= 0.8 * n_train:
                 continue
-            scores[deg] = _cv_rms(full[:, [col[x] for x in terms]], y, fold, folds)
+            sq[deg] = cv.squared_errors([col[x] for x in terms])
+            scores[deg] = float(np.sqrt(np.mean(sq[deg])))
         best = min(scores, key=lambda d: (scores[d], len(_candidate_terms(*d))))
-        axes.append(_fit_axis(axis, AXIS_UNITS[i], best, scores, full, col, y, fold, folds, scales, grid, drop))
+        if one_se:
+            bound = np.mean(sq[best]) + np.std(sq[best]) / np.sqrt(n)
+            best = min((d for d in scores if np.mean(sq[d]) <= bound),
+                       key=lambda d: (len(_candidate_terms(*d)), scores[d]))
+        axes.append(_fit_axis(axis, AXIS_UNITS[i], best, scores, cv, col, scales, grid, drop))
     table = _to_table(axes, hexapod, (float(np.min(t)), float(np.max(t))) if varies_t else None)
     return TableFit(table, tuple(axes), n, folds, (float(np.min(t)), float(np.max(t))) if varies_t else None)
 
 
-def _fit_axis(axis, unit, degrees, scores, full, col, y, fold, folds, scales, grid, drop) -> AxisFit:
+def _fit_axis(axis, unit, degrees, scores, cv, col, scales, grid, drop) -> AxisFit:
+    full, y = cv.a, cv.y
     terms = _candidate_terms(*degrees)
     keep = list(terms)
     dropped: dict[tuple[int, int, int], float] = {}
-    cv = scores[degrees]
+    best = scores[degrees]
     while drop and keep:
         a = full[:, [col[x] for x in keep]]
         coef, cov, _ = _ols(a, y)
@@ -195,11 +233,11 @@ def _fit_axis(axis, unit, degrees, scores, full, col, y, fold, folds, scales, gr
             break
         j = order[0]
         trial = keep[:j] + keep[j + 1:]
-        cv_trial = _cv_rms(full[:, [col[x] for x in trial]], y, fold, folds)
-        if cv_trial > cv * (1.0 + DROP_TOLERANCE):
+        cv_trial = cv.rms([col[x] for x in trial])
+        if cv_trial > best * (1.0 + DROP_TOLERANCE):
             break
         dropped[keep[j]] = float(tr[j])
-        keep, cv = trial, cv_trial
+        keep, best = trial, cv_trial
     a = full[:, [col[x] for x in keep]]
     coef, cov, rms = _ols(a, y)
     se, sr, st = scales
@@ -212,7 +250,7 @@ def _fit_axis(axis, unit, degrees, scores, full, col, y, fold, folds, scales, gr
     phi = _design(*grid, scales, keep)
     pstd = np.sqrt(np.einsum("ij,jk,ik->i", phi, cov, phi))
     worst = int(np.argmax(pstd))
-    return AxisFit(axis, unit, degrees, tuple(out), cv, rms, float(pstd[worst]), float(np.sqrt(np.mean(pstd**2))),
+    return AxisFit(axis, unit, degrees, tuple(out), best, rms, float(pstd[worst]), float(np.sqrt(np.mean(pstd**2))),
                    (float(grid[0][worst]), float(grid[1][worst]), float(grid[2][worst])),
                    {f"{d[0]},{d[1]},{d[2]}": s for d, s in scores.items()})
 
