@@ -251,8 +251,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f = sub.add_parser("fit", help="fit a table (v7 YAML) to a campaign, with uncertainty")
     f.add_argument("campaign", help="campaign CSV (a '# sign: correction|error' header line)")
     f.add_argument("--out", required=True, metavar="LUT.yaml")
-    f.add_argument("--max-degrees", type=int, nargs=3, default=(3, 6, 2), metavar=("E", "R", "T"),
-                   help="largest degrees tried in elevation, rotation, temperature (default 3 6 2)")
+    f.add_argument("--max-degrees", type=int, nargs=3, default=(5, 6, 2), metavar=("E", "R", "T"),
+                   help="largest degrees tried in elevation, rotation, temperature (default 5 6 2)")
     f.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--keep-all", action="store_true", help="deploy every coefficient, significant or not")

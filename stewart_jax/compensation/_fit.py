@@ -156,7 +156,7 @@ def fit_table(
     campaign: Campaign,
     hexapod: str = "camera",
     *,
-    max_degrees: tuple[int, int, int] = (3, 6, 2),
+    max_degrees: tuple[int, int, int] = (5, 6, 2),
     folds: int = 5,
     seed: int = 0,
     drop: bool = True,
