@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 API = ROOT / "docs" / "api"
 PACKAGES = ["stewart_jax"] + [
     f"stewart_jax.{name}"
-    for name in ("mechanism", "calibration", "optimise", "study", "discrepancy", "cable_robot", "plotting")
+    for name in ("mechanism", "calibration", "optimise", "study", "discrepancy", "cable_robot", "plotting",
+                 "compensation")
 ]
 
 
@@ -111,7 +112,7 @@ def test_every_subpackage_has_an_api_page():
 
 # --- a small public surface, and the names that left it ----------------------------------------------
 
-MAX_PUBLIC_NAMES = 200  # all namespaces together; a name in the core and a subpackage counts twice
+MAX_PUBLIC_NAMES = 220  # all namespaces together (nine); a name in the core and a subpackage counts twice
 
 
 def test_the_public_surface_stays_small():

@@ -6,7 +6,7 @@ inverse kinematics turns the moving strut ends about the pivot by ``Rx(u)·Ry(v)
 library's pose ``[dx, dy, dz, φ, θ, ψ]`` is in mm and radians with ``T = Rz(ψ)·Ry(θ)·Rx(φ)``
 (Wang et al. 2018, eq. 1). :func:`offsets_to_poses` converts exactly, through the rotation matrix
 (the two orders differ by the products of the angles: 0.07 µm of strut length at the v7 camera
-table's offsets, 25 µm at the camera hexapod's largest tilts).
+table's offsets, 39 µm at the corners of the camera hexapod's tilt travel).
 """
 
 from __future__ import annotations
