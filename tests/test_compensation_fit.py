@@ -172,3 +172,32 @@ def test_simulate_campaign_fit_check_through_the_command_line(tmp_path):
     flex = tmp_path / "flex.csv"
     assert main(["simulate", "--campaign", "--out", str(flex), "--temperatures-degC", "0,10,20"]) == 0
     assert read_campaign(flex).has_temperature
+
+
+def test_a_points_campaign_gives_the_truths_offsets(tmp_path, truth):
+    """Target points of an optic displaced by the negative of the table's correction, measured
+    with a noiseless tracker, give back the table's offsets through the rigid fits."""
+    from stewart_jax.calibration._points import default_registration, default_targets
+    from stewart_jax.compensation._points import points_campaign, simulate_points_campaign
+
+    camera = _camera()
+    targets = default_targets(camera)
+    e, r = np.arange(0.0, 90.1, 15.0), np.arange(-90.0, 90.1, 30.0)  # the grid of the next test: one compilation
+    data, att = simulate_points_campaign(jax.random.key(0), truth, camera, targets, default_registration(camera), e, r,
+                                         range_um=1e-7, across_um_per_m=1e-7)
+    camp, dropped = points_campaign(data, targets, camera, att)
+    assert dropped == ()
+    want = np.asarray(truth.offsets(camp.elevation_deg, camp.rotation_deg))
+    np.testing.assert_allclose(camp.offsets[:, :3], want[:, :3], rtol=0, atol=1e-4)  # µm
+    np.testing.assert_allclose(camp.offsets[:, 3:], want[:, 3:], rtol=0, atol=1e-8)  # deg
+
+
+def test_lut_fit_from_a_points_campaign_through_the_command_line(tmp_path):
+    pc, tj, lut = tmp_path / "pc.csv", tmp_path / "t.json", tmp_path / "lut.yaml"
+    assert main(["simulate", "--campaign", "--points", "--targets", str(tj), "--default-targets", "--truth", str(V7),
+                 "--out", str(pc), "--elevations-deg", "0:90:15", "--rotations-deg=-90:90:30"]) == 0
+    assert main(["lut", "fit", str(pc), "--out", str(lut)]) == 2  # a points file needs its targets
+    assert main(["lut", "fit", str(pc), "--targets", str(tj), "--out", str(lut)]) == 0
+    e = np.linspace(0, 90, 10)
+    err = np.asarray(load_table(lut).offsets(e, 30.0)) - np.asarray(load_table(V7).offsets(e, 30.0))
+    assert np.abs(err[:, :3]).max() < 100.0 and np.abs(err[:, 3:5]).max() < 0.003  # µm, deg: tracker-noise level

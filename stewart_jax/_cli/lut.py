@@ -36,6 +36,28 @@ def _values(text: str) -> np.ndarray:
         raise argparse.ArgumentTypeError(f"expected START:STOP:STEP or V1,V2,…, got {text!r}") from None
 
 
+def _campaign(path: str, args):
+    """A campaign CSV, or a points campaign (a points file with attitudes; ``--targets``)."""
+    from ..calibration._csv import csv_rows
+    from ..compensation._campaign import read_campaign
+
+    if "target" not in csv_rows(path)[1]:
+        return read_campaign(path)
+    from ..calibration._points import read_targets
+    from ..compensation._points import read_points_campaign
+    from ..mechanism._registry import load_mechanism
+
+    if not args.targets:
+        raise ValueError(f"{path} is a points file (it has a 'target' column): give the targets' nominal coordinates "
+                         "with --targets T.json")
+    camp, dropped = read_points_campaign(path, read_targets(args.targets),
+                                         load_mechanism(args.geometry or _GEOMETRY[args.hexapod]))
+    if dropped:
+        print(f"{path}: {len(dropped)} pose(s) with fewer than three targets seen left out: {', '.join(dropped[:10])}",
+              file=sys.stderr)
+    return camp
+
+
 def _emit_json(args, obj) -> None:
     if args.json == "-":
         from .._files import json_text
@@ -121,12 +143,11 @@ def _run_apply(args) -> int:
 
 
 def _run_fit(args) -> int:
-    from ..compensation._campaign import read_campaign
     from ..compensation._fit import fit_table
     from ..compensation._yaml import save_table
 
     check_outputs(args, out="--out", json="--json")
-    campaign = read_campaign(args.campaign)
+    campaign = _campaign(args.campaign, args)
     fit = fit_table(campaign, args.hexapod, max_degrees=tuple(args.max_degrees), folds=args.folds, seed=args.seed,
                     drop=not args.keep_all)
     report = fit.report()
@@ -155,7 +176,6 @@ def _domain(args):
 
 
 def _run_check(args) -> int:
-    from ..compensation._campaign import read_campaign
     from ..compensation._check import check_table
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism
@@ -163,7 +183,7 @@ def _run_check(args) -> int:
     check_outputs(args, json="--json")
     table = load_table(args.files, args.hexapod)
     geometry = args.geometry or _GEOMETRY[args.hexapod]
-    campaign = read_campaign(args.campaign) if args.campaign else None
+    campaign = _campaign(args.campaign, args) if args.campaign else None
     result = check_table(table, load_mechanism(geometry), campaign=campaign, domain=_domain(args),
                          strut_limit_um=args.strut_limit_um)
     for axis, entry in result.offsets.items():
@@ -249,7 +269,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     a.add_argument("--geometry", help="a preset or geometry file: add the struts' length changes (µm)")
     _common(a)
     f = sub.add_parser("fit", help="fit a table (v7 YAML) to a campaign, with uncertainty")
-    f.add_argument("campaign", help="campaign CSV (a '# sign: correction|error' header line)")
+    f.add_argument("campaign", help="campaign CSV (a '# sign: correction|error' header line), or a points file "
+                                    "with attitude columns (with --targets)")
+    f.add_argument("--targets", metavar="T.json", help="a points campaign: the targets' nominal coordinates")
+    f.add_argument("--geometry", help="a points campaign: the hexapod's geometry (default rubin_camera / rubin_m2)")
     f.add_argument("--out", required=True, metavar="LUT.yaml")
     f.add_argument("--max-degrees", type=int, nargs=3, default=(5, 6, 2), metavar=("E", "R", "T"),
                    help="largest degrees tried in elevation, rotation, temperature (default 5 6 2)")
@@ -260,7 +283,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     c = sub.add_parser("check", help="scan the domain for limits; compare with a campaign")
     c.add_argument("files", nargs="+", help="YAML files merged in order")
     c.add_argument("--geometry", help="preset or geometry file (default rubin_camera / rubin_m2)")
-    c.add_argument("--campaign", metavar="CAMPAIGN.csv")
+    c.add_argument("--campaign", metavar="CAMPAIGN.csv", help="a campaign CSV, or a points campaign (with --targets)")
+    c.add_argument("--targets", metavar="T.json", help="a points campaign: the targets' nominal coordinates")
     c.add_argument("--strut-limit-um", type=float, default=None,
                    help="|strut length change| limit (µm); default: the geometry's own limits")
     _domain_args(c)
@@ -298,6 +322,8 @@ def run_campaign(args: argparse.Namespace) -> int:
     from ..compensation._yaml import load_table
 
     check_outputs(args, out="--out")
+    if args.points:
+        return _simulate_points_campaign(args)
     truth = load_table(args.truth, args.hexapod) if args.truth else camera_flexure()
     c = simulate_campaign(jax.random.key(args.seed), truth, args.elevations_deg, args.rotations_deg,
                           args.temperatures_degC, sigma_um=args.sigma_um, sigma_arcsec=args.sigma_arcsec)
@@ -305,4 +331,36 @@ def run_campaign(args: argparse.Namespace) -> int:
     write_campaign(c, args.out, (f"stewart-jax simulate --campaign: truth {what}, σ {args.sigma_um} µm, "
                                  f"{args.sigma_arcsec}″, seed {args.seed}",))
     print(f"wrote a campaign of {len(c.elevation_deg)} attitudes to {args.out}", file=sys.stderr)
+    return 0
+
+
+def _simulate_points_campaign(args: argparse.Namespace) -> int:
+    """``simulate --campaign --points``: the targets measured at every attitude, hexapod at zero."""
+    import jax
+
+    from .._files import write_text_atomic
+    from ..calibration._points import default_registration, default_targets, read_targets, write_targets
+    from ..compensation._points import points_campaign_csv, simulate_points_campaign
+    from ..compensation._yaml import load_table
+    from ..mechanism._registry import load_mechanism
+    from ._points import tracker_sigma
+
+    if not args.truth:
+        raise ValueError("simulate --campaign --points draws from a table: give it with --truth FILE.yaml")
+    if args.targets is None:
+        raise ValueError("--points needs --targets T.json (add --default-targets to write a default set there)")
+    if args.default_targets:
+        check_outputs(args, targets="--targets")
+    mechanism = load_mechanism(_GEOMETRY[args.hexapod] if args.geometry == "nominal" else args.geometry)
+    targets = default_targets(mechanism) if args.default_targets else read_targets(args.targets)
+    range_um, across = tracker_sigma(args)
+    data, att = simulate_points_campaign(jax.random.key(args.seed), load_table(args.truth, args.hexapod), mechanism,
+                                         targets, default_registration(mechanism), args.elevations_deg,
+                                         args.rotations_deg, args.temperatures_degC, range_um=range_um,
+                                         across_um_per_m=across)
+    if args.default_targets:
+        write_targets(args.targets, targets)
+    write_text_atomic(args.out, points_campaign_csv(data, targets, att))
+    print(f"wrote a points campaign of {data.n_poses} attitudes ({len(data.points)} target points) to {args.out}",
+          file=sys.stderr)
     return 0

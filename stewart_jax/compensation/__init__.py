@@ -8,7 +8,8 @@ uncertainty, check and compare (the Rubin Observatory's hexapod tables, schemas 
   ``Rx(u)·Ry(v)·Rz(w)`` to the library's mm, rad and ``Rz(ψ)·Ry(θ)·Rx(φ)``),
   :func:`strut_changes` (through any mechanism's inverse kinematics).
 - Campaigns: :class:`Campaign`, :func:`read_campaign`, :func:`write_campaign`,
-  :func:`simulate_campaign` from a table or a :class:`FlexureModel`.
+  :func:`simulate_campaign` from a table or a :class:`FlexureModel`; :func:`read_points_campaign`
+  (a laser tracker's target points at each attitude, turned into pose offsets).
 - Fit: :func:`fit_table` → :class:`TableFit` (degrees by cross-validation, σ of every
   coefficient and prediction, solid/marginal/noise labels, only significant terms kept).
 - Check and compare: :func:`check_table` → :class:`TableCheck`, :func:`diff_tables` →
@@ -34,5 +35,6 @@ from ._check import (
     diff_tables as diff_tables,
 )
 from ._fit import TableFit as TableFit, fit_table as fit_table
+from ._points import read_points_campaign as read_points_campaign
 from ._table import CompensationTable as CompensationTable
 from ._yaml import load_table as load_table, save_table as save_table
