@@ -153,6 +153,13 @@ def test_campaign_sign_convention_is_required_and_applied(tmp_path):
     (tmp_path / "cor.csv").write_text("# sign: correction\n" + body)
     np.testing.assert_array_equal(read_campaign(tmp_path / "err.csv").offsets,
                                   -read_campaign(tmp_path / "cor.csv").offsets)
+    (tmp_path / "var.csv").write_text("# Sign convention: error (tracker minus aligned)\n" + body)
+    np.testing.assert_array_equal(read_campaign(tmp_path / "var.csv").offsets,
+                                  read_campaign(tmp_path / "err.csv").offsets)
+    for bad in ("# sign: plus\n", "# sign: error\n# sign: correction\n"):
+        (tmp_path / "bad.csv").write_text(bad + body)
+        with pytest.raises(ValueError, match="sign convention"):
+            read_campaign(tmp_path / "bad.csv")
     (tmp_path / "mm.csv").write_text("# sign: correction\n" + body.replace("x_um", "x_mm"))
     with pytest.raises(ValueError, match="column 'x_mm'.*x_um"):
         read_campaign(tmp_path / "mm.csv")

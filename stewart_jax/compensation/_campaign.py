@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 from typing import NamedTuple
 
 import equinox as eqx
@@ -56,6 +57,9 @@ class Campaign(NamedTuple):
     has_temperature: bool = False
 
 
+_SIGN_LINE = re.compile(r"sign(?:[ _-]?convention)?\s*[:=]\s*([A-Za-z]*)", re.IGNORECASE)
+"""``sign: NAME`` (also ``sign convention: NAME``, ``sign_convention = NAME``) in a comment line."""
+
 _SLIPS = {"x": "x_um", "y": "y_um", "z": "z_um", "u": "u_deg", "v": "v_deg", "w": "w_deg"}
 
 
@@ -67,8 +71,8 @@ def read_campaign(path: str | os.PathLike[str]) -> Campaign:
     missing or non-numeric cell is refused naming its row."""
     with open(path, encoding="utf-8", newline="") as f:
         lines = f.read().splitlines()
-    comments = [ln.lstrip("#").strip() for ln in lines if ln.lstrip().startswith("#")]
-    signs = [(c.split(":", 1)[1].split() or [""])[0].lower() for c in comments if c.lower().startswith("sign:")]
+    comments = [ln.lstrip().lstrip("#").strip() for ln in lines if ln.lstrip().startswith("#")]
+    signs = [m.group(1).lower() for c in comments if (m := _SIGN_LINE.match(c))]
     if len(signs) != 1 or signs[0] not in SIGNS:
         got = f"got {signs!r}" if signs else "none stated"
         raise ValueError(f"{path}: a campaign states its sign convention in one header line, '# sign: correction' "

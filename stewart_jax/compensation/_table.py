@@ -26,6 +26,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from .._checks import is_traced
+
 AXES = ("x", "y", "z", "u", "v", "w")
 """The six offsets of a table, in the controller's order."""
 
@@ -83,7 +85,7 @@ class CompensationTable(eqx.Module):
             raise ValueError(f"{len(self.filter_names)} filter names but {self.filter_z_um.shape} z offsets")
         if self.hexapod not in HEXAPODS:
             raise ValueError(f"hexapod must be one of {sorted(HEXAPODS)}, got {self.hexapod!r}")
-        if not isinstance(self.min_temperature_degC, jax.core.Tracer):
+        if not is_traced((self.min_temperature_degC, self.max_temperature_degC)):
             if not float(self.min_temperature_degC) < float(self.max_temperature_degC):
                 raise ValueError(f"min_temperature {float(self.min_temperature_degC)} °C must be below "
                                  f"max_temperature {float(self.max_temperature_degC)} °C")
