@@ -208,3 +208,12 @@ def test_lut_fit_from_a_points_campaign_through_the_command_line(tmp_path):
     e = np.linspace(0, 90, 10)
     err = np.asarray(load_table(lut).offsets(e, 30.0)) - np.asarray(load_table(V7).offsets(e, 30.0))
     assert np.abs(err[:, :3]).max() < 100.0 and np.abs(err[:, 3:5]).max() < 0.003  # µm, deg: tracker-noise level
+
+
+def test_a_campaign_at_one_rotator_angle_fits_no_rotation_term(truth):
+    camp = simulate_campaign(jax.random.key(3), truth, ELEVATIONS, [0.0], sigma_um=1.0, sigma_arcsec=0.2)
+    fit = fit_table(camp)
+    assert all(a.degrees[1] == 0 for a in fit.axes)
+    off = np.asarray(fit.table.offsets(ELEVATIONS, 0.0))
+    assert np.all(np.isfinite(off))
+    np.testing.assert_allclose(off[:, :3], np.asarray(truth.offsets(ELEVATIONS, 0.0))[:, :3], atol=3.0)  # µm

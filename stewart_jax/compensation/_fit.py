@@ -140,11 +140,12 @@ def _ols(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     if a.shape[1] == 0:
         return np.zeros(0), np.zeros((0, 0)), float(np.sqrt(np.mean(y**2)))
     u, s, vt = np.linalg.svd(a, full_matrices=False)
-    coef = vt.T @ ((u.T @ y) / s)
+    inv = np.where(s > s[0] * 1e-12, 1.0 / np.where(s > 0, s, 1.0), 0.0)  # the pseudo-inverse's
+    coef = vt.T @ ((u.T @ y) * inv)
     res = y - a @ coef
-    dof = max(len(y) - a.shape[1], 1)
+    dof = max(len(y) - int(np.count_nonzero(inv)), 1)
     s2 = float(res @ res) / dof
-    cov = (vt.T / s**2) @ vt * s2
+    cov = (vt.T * inv**2) @ vt * s2
     return coef, cov, float(np.sqrt(np.mean(res**2)))
 
 
@@ -189,10 +190,11 @@ def fit_table(
                        np.unique(np.linspace(np.min(t), np.max(t), 3)) if varies_t else np.zeros(1), indexing="ij")
     grid = [g.ravel() for g in grid]
     fold = _folds(n, folds, seed)
-    max_dt = max_degrees[2] if varies_t else 0
-    ranked = [(de, dr, dt) for de, dr, dt in itertools.product(range(max_degrees[0] + 1), range(max_degrees[1] + 1),
-                                                              range(max_dt + 1))]
-    all_terms = _candidate_terms(max_degrees[0], max_degrees[1], max_dt)
+    # a degree needs more distinct values than itself: a campaign at one rotator angle fits none in R
+    max_de, max_dr, max_dt = (min(d, len(np.unique(x)) - 1)
+                              for d, x in zip(max_degrees, (e, r, t if varies_t else t[:1]), strict=True))
+    ranked = list(itertools.product(range(max_de + 1), range(max_dr + 1), range(max_dt + 1)))
+    all_terms = _candidate_terms(max_de, max_dr, max_dt)
     full = _design(e, r, t, scales, all_terms)
     cv = _CrossValidation(full, fold, folds)
     col = {term: i for i, term in enumerate(all_terms)}
