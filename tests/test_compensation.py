@@ -268,3 +268,13 @@ def test_lut_apply_cli_rows_match_the_library(tmp_path, camera):
     np.testing.assert_allclose(rows[:, 6:], ik, rtol=0, atol=0.05)
     doc = json.loads(js.read_text())
     assert doc["rows"][1]["z_um"] == pytest.approx(want[1, 2], abs=1e-9) and doc["rows"][0]["filter"] == "g_6"
+
+
+def test_no_output_overwrites_an_input(tmp_path, capsys):
+    table = tmp_path / "t.yaml"
+    table.write_text(V7.read_text())
+    assert main(["lut", "apply", str(table), "--elevation-deg", "10", "--rotation-deg", "0", "--out", str(table)]) == 2
+    assert "would destroy the input" in capsys.readouterr().err
+    assert table.read_text() == V7.read_text()
+    assert main(["simulate", "--campaign", "--truth", str(table), "--out", str(table)]) == 2
+    assert table.read_text() == V7.read_text()

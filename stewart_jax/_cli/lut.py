@@ -58,6 +58,23 @@ def _campaign(path: str, args):
     return camp
 
 
+def _check_outputs(args, **outputs: str) -> None:
+    """:func:`check_outputs`, ``--json`` included unless it names standard output."""
+    from .._files import check_distinct_paths
+
+    json_path = getattr(args, "json", None)
+    if json_path and json_path != "-":
+        outputs["json"] = "--json"
+    check_outputs(args, **outputs)
+    tables = [*(getattr(args, "files", None) or []), *(getattr(args, "base", None) or []),
+              *(getattr(args, "truth", None) or [])]
+    inputs = {f"table {p}": p for p in tables}
+    for attr in ("a", "b", "campaign", "attitudes", "targets"):
+        if isinstance(getattr(args, attr, None), str):  # simulate's --campaign is a flag
+            inputs[attr] = getattr(args, attr)
+    check_distinct_paths({what: getattr(args, attr, None) for attr, what in outputs.items()}, inputs)
+
+
 def _emit_json(args, obj) -> None:
     if args.json == "-":
         from .._files import json_text
@@ -69,6 +86,8 @@ def _emit_json(args, obj) -> None:
 
 def _attitudes(args) -> dict:
     """``--attitudes`` CSV or the one attitude of the options, as arrays (and filter names)."""
+    if args.attitudes is not None and (args.elevation_deg is not None or args.rotation_deg is not None):
+        raise ValueError("give one attitude (--elevation-deg, --rotation-deg) or --attitudes ATT.csv, not both")
     if args.attitudes is None:
         if args.elevation_deg is None or args.rotation_deg is None:
             raise ValueError("give --elevation-deg and --rotation-deg, or --attitudes ATT.csv")
@@ -106,7 +125,7 @@ def _run_apply(args) -> int:
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism
 
-    check_outputs(args, out="--out", json="--json")
+    _check_outputs(args, out="--out")
     table = load_table(args.files, args.hexapod)
     mechanism = load_mechanism(args.geometry) if args.geometry else None
     att = _attitudes(args)
@@ -146,7 +165,7 @@ def _run_fit(args) -> int:
     from ..compensation._fit import fit_table
     from ..compensation._yaml import save_table
 
-    check_outputs(args, out="--out", json="--json")
+    _check_outputs(args, out="--out")
     campaign = _campaign(args.campaign, args)
     fit = fit_table(campaign, args.hexapod, max_degrees=tuple(args.max_degrees), folds=args.folds, seed=args.seed,
                     drop=not args.keep_all)
@@ -180,7 +199,7 @@ def _run_check(args) -> int:
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism
 
-    check_outputs(args, json="--json")
+    _check_outputs(args)
     table = load_table(args.files, args.hexapod)
     geometry = args.geometry or _GEOMETRY[args.hexapod]
     campaign = _campaign(args.campaign, args) if args.campaign else None
@@ -213,7 +232,7 @@ def _run_diff(args) -> int:
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism
 
-    check_outputs(args, json="--json", plot="--plot")
+    _check_outputs(args, plot="--plot")
     a = load_table([*args.base, args.a], args.hexapod)
     b = load_table([*args.base, args.b], args.hexapod)
     mechanism = load_mechanism(args.geometry) if args.geometry else None
@@ -321,7 +340,7 @@ def run_campaign(args: argparse.Namespace) -> int:
     from ..compensation._campaign import camera_flexure, simulate_campaign, write_campaign
     from ..compensation._yaml import load_table
 
-    check_outputs(args, out="--out")
+    _check_outputs(args, out="--out")
     if args.points:
         return _simulate_points_campaign(args)
     truth = load_table(args.truth, args.hexapod) if args.truth else camera_flexure()
