@@ -259,8 +259,8 @@ def test_lut_apply_cli_rows_match_the_library(tmp_path, camera):
                  "--out", str(out), "--json", str(js)]) == 0
     lines = out.read_text().splitlines()
     header = lines[0].split(",")
-    assert header[-12:] == ["x_um", "y_um", "z_um", "u_deg", "v_deg", "w_deg"] + [f"strut{i}_um" for i in range(1, 7)]
-    rows = np.array([[float(x) for x in ln.split(",")[5:]] for ln in lines[1:]])
+    assert header == ["x_um", "y_um", "z_um", "u_deg", "v_deg", "w_deg"] + [f"strut{i}_um" for i in range(1, 7)]
+    rows = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
     cfg = merged(yaml.safe_load(V7.read_text()), yaml.safe_load(OVERRIDE_TEXT))["camera_config"]
     want = np.array([rule(cfg, 10, 20, 0, -30, "g_6"), rule(cfg, 45, 0, 0, 0), rule(cfg, 80, -100, 0, 25, "i_39")])
     np.testing.assert_allclose(rows[:, :6], want, rtol=0, atol=1e-6)

@@ -141,11 +141,10 @@ def _run_apply(args) -> int:
                              f"({args.geometry}): offsets {off[bad].tolist()}")
         cols += [f"strut{i}_um" for i in range(1, 7)]
         rows = np.concatenate([off, dq], axis=1)
-    text = io.StringIO()
-    text.write(",".join(["elevation_deg", "rotation_deg", "azimuth_deg", "temperature_degC", "filter"] + cols) + "\n")
+    text = io.StringIO()  # one row per attitude, in the attitudes' order (the JSON repeats the attitude)
+    text.write(",".join(cols) + "\n")
     for k in range(len(rows)):
-        a = [repr(float(att[c][k])) for c in ("elevation_deg", "rotation_deg", "azimuth_deg", "temperature_degC")]
-        text.write(",".join(a + [att["filter"][k] or ""] + [repr(float(v)) for v in rows[k]]) + "\n")
+        text.write(",".join(repr(float(v)) for v in rows[k]) + "\n")
     if args.out:
         from .._files import write_text_atomic
 
