@@ -8,8 +8,6 @@ import csv
 import io
 import sys
 
-import numpy as np
-
 from ._common import check_outputs, write_json
 
 _GEOMETRY = {"camera": "rubin_camera", "m2": "rubin_m2"}
@@ -23,15 +21,15 @@ def _pair(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _values(text: str) -> np.ndarray:
+def _values(text: str) -> list[float]:
     """``A:B:STEP`` (inclusive) or ``V1,V2,…``."""
     try:
         if ":" in text:
             a, b, step = (float(x) for x in text.split(":"))
-            if step <= 0:
+            if step <= 0 or b < a:
                 raise ValueError
-            return np.arange(a, b + step / 2, step)
-        return np.array([float(x) for x in text.split(",")])
+            return [a + i * step for i in range(int((b - a) / step + 1e-9) + 1)]
+        return [float(x) for x in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected START:STOP:STEP or V1,V2,…, got {text!r}") from None
 
@@ -86,6 +84,8 @@ def _emit_json(args, obj) -> None:
 
 def _attitudes(args) -> dict:
     """``--attitudes`` CSV or the one attitude of the options, as arrays (and filter names)."""
+    import numpy as np
+
     if args.attitudes is not None and (args.elevation_deg is not None or args.rotation_deg is not None):
         raise ValueError("give one attitude (--elevation-deg, --rotation-deg) or --attitudes ATT.csv, not both")
     if args.attitudes is None:
@@ -120,6 +120,8 @@ def _attitudes(args) -> dict:
 
 
 def _run_apply(args) -> int:
+    import numpy as np
+
     from ..compensation._apply import strut_changes
     from ..compensation._table import OFFSET_COLUMNS
     from ..compensation._yaml import load_table
@@ -194,6 +196,8 @@ def _domain(args):
 
 
 def _run_check(args) -> int:
+    import numpy as np
+
     from ..compensation._check import check_table
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism
@@ -327,8 +331,10 @@ def campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--truth", nargs="+", metavar="LUT.yaml",
                    help="--campaign: the true table (files merged in order); default: a gravity/thermal flexure model")
     p.add_argument("--hexapod", choices=("camera", "m2"), default="camera")
-    p.add_argument("--elevations-deg", type=_values, default=np.arange(0.0, 90.1, 5.0), metavar="A:B:STEP")
-    p.add_argument("--rotations-deg", type=_values, default=np.arange(-90.0, 90.1, 10.0), metavar="A:B:STEP")
+    p.add_argument("--elevations-deg", type=_values, default="0:90:5", metavar="A:B:STEP",
+                   help="--campaign: elevations, START:STOP:STEP (inclusive) or V1,V2,… (default 0:90:5)")
+    p.add_argument("--rotations-deg", type=_values, default="-90:90:10", metavar="A:B:STEP",
+                   help="--campaign: rotator angles (default -90:90:10; write --rotations-deg=-90:90:10)")
     p.add_argument("--temperatures-degC", type=_values, default=None, metavar="A:B:STEP")
 
 
