@@ -172,8 +172,8 @@ def diff_tables(a: CompensationTable, b: CompensationTable, mechanism: AbstractM
     offsets = {}
     for i, (axis, unit) in enumerate(zip(AXES, AXIS_UNITS, strict=True)):
         k = int(np.argmax(np.abs(d[:, i])))
-        offsets[axis] = {f"max_abs_diff_{unit}": float(abs(d[k, i])), "a": float(oa[k, i]), "b": float(ob[k, i]),
-                         "at": _at(e, r, t, k)}
+        offsets[axis] = {f"max_abs_diff_{unit}": float(abs(d[k, i])), f"a_{unit}": float(oa[k, i]),
+                         f"b_{unit}": float(ob[k, i]), "at": _at(e, r, t, k)}
     struts = None
     if mechanism is not None:
         dd = strut_changes(mechanism, oa)[0] - strut_changes(mechanism, ob)[0]

@@ -276,6 +276,15 @@ def _to_table(axes: list[AxisFit], hexapod: str, t_range: tuple[float, float] | 
                              jnp.zeros(0), (), bool(dt > 0), hexapod)
 
 
+def _coefficient_unit(unit: str, term: Term) -> str:
+    """``um/deg^3``, ``deg/degC``, ``um``: the unit of a coefficient of the rule."""
+    out = unit
+    for name, n in (("deg", term.elevation_power + term.rotation_power), ("degC", term.temperature_power)):
+        if n:
+            out += f"/{name}" + (f"^{n}" if n > 1 else "")
+    return out
+
+
 def _report(fit: TableFit) -> dict:
     out = {"n_attitudes": fit.n_attitudes, "folds": fit.folds,
            "temperature_range_degC": fit.temperature_range_degC, "labels": {
@@ -291,7 +300,8 @@ def _report(fit: TableFit) -> dict:
                                               a.prediction_std_max_at, strict=True)),
             f"cv_rms_by_degrees_{u}": a.candidates,
             "coefficients": [{"elevation_power": x.elevation_power, "rotation_power": x.rotation_power,
-                              "temperature_power": x.temperature_power, "value": x.value, "std": x.std,
-                              "t": x.t, "label": x.label, "kept": x.kept} for x in a.terms],
+                              "temperature_power": x.temperature_power, "unit": _coefficient_unit(u, x),
+                              "value": x.value, "std": x.std, "t": x.t, "label": x.label, "kept": x.kept}
+                             for x in a.terms],
         }
     return out
