@@ -92,7 +92,13 @@ def test_fit_drops_what_the_data_do_not_support_and_finds_a_temperature_term(tmp
 
 
 def test_lut_check_passes_the_table_refuses_six_times_and_flags_flipped_signs(tmp_path, truth):
-    assert check_table(truth, _camera()).passed
+    passed = check_table(truth, _camera())
+    assert passed.passed
+    # the scan includes every filter: the worst z is the table's most negative z plus the most
+    # negative filter offset (y_10, -765.0391 µm; the table's z is negative everywhere)
+    z_table = np.abs(np.asarray(truth.offsets(np.linspace(0, 90, 46)[:, None], np.linspace(-90, 90, 61)))[..., 2]).max()
+    assert passed.offsets["z"]["max_abs_um"] == pytest.approx(z_table + 765.0391, abs=1e-6)
+    assert passed.offsets["z"]["at"]["filter"] == "y_10"
     big = check_table(truth.scaled(6.0), _camera())
     assert not big.passed and any("beyond the travel" in p for p in big.problems)
     camp = simulate_campaign(jax.random.key(0), truth, ELEVATIONS, ROTATIONS, sigma_um=5.0, sigma_arcsec=1.0)

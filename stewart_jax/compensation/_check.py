@@ -50,8 +50,31 @@ class Domain(NamedTuple):
         return e.ravel(), r.ravel(), t.ravel()
 
 
-def _at(e, r, t, i) -> dict:
-    return {"elevation_deg": float(e[i]), "rotation_deg": float(r[i]), "temperature_degC": float(t[i])}
+def _at(att: dict, i: int) -> dict:
+    """The attitude of grid point ``i`` (with its filter, where the table has filters)."""
+    out = {k: float(v[i]) for k, v in att.items() if k != "filter"}
+    if "filter" in att:
+        out["filter"] = att["filter"][i]
+    return out
+
+
+def _where(att: dict, i: int) -> str:
+    a = _at(att, i)
+    text = f"elevation {a['elevation_deg']:g}°, rotation {a['rotation_deg']:g}°, {a['temperature_degC']:g} °C"
+    return text + (f", filter {a['filter']}" if a.get("filter") else "")
+
+
+def _scan(table: CompensationTable, domain: Domain | None, filters: bool) -> tuple[dict, np.ndarray]:
+    """The domain's grid (× every filter of the table and none, where ``filters``) and the
+    table's offsets there."""
+    e, r, t = (domain or Domain()).grid(table)
+    att = {"elevation_deg": e, "rotation_deg": r, "temperature_degC": t}
+    if not (filters and table.filter_names):
+        return att, np.asarray(table.offsets(e, r, 0.0, t))
+    names = [None, *table.filter_names]
+    att = {k: np.tile(v, len(names)) for k, v in att.items()} | {"filter": [n for n in names for _ in e]}
+    return att, np.asarray(table.offsets(att["elevation_deg"], att["rotation_deg"], 0.0, att["temperature_degC"],
+                                         att["filter"]))
 
 
 class TableCheck(NamedTuple):
@@ -74,29 +97,29 @@ class TableCheck(NamedTuple):
 def check_table(table: CompensationTable, mechanism: AbstractMechanism | None = None, *,
                 campaign: Campaign | None = None, domain: Domain | None = None,
                 strut_limit_um: float | None = None) -> TableCheck:
-    """Scan ``domain`` for the worst offset against the mechanism's travel and the worst strut
-    length change against its reading limits (or ``strut_limit_um``, µm, where given); compare
+    """Scan ``domain`` (with every filter of the table, and none) for the worst offset against
+    the mechanism's travel and the worst strut length change against its reading limits (or
+    ``strut_limit_um``, µm, where given); compare
     with ``campaign`` per axis. Every exceeded limit and every axis made worse is a problem.
     ``domain`` defaults to ``Domain()``: elevation [0, 90], rotation [−90, 90], the table's
     temperature range."""
-    e, r, t = (domain or Domain()).grid(table)
-    off = np.asarray(table.offsets(e, r, 0.0, t))
+    att, off = _scan(table, domain, filters=True)
     problems: list[str] = []
     travel = None if mechanism is None else travel_limits(mechanism)
     offsets = {}
     for i, (axis, unit) in enumerate(zip(AXES, AXIS_UNITS, strict=True)):
         k = int(np.argmax(np.abs(off[:, i])))
-        entry = {f"max_abs_{unit}": float(abs(off[k, i])), "at": _at(e, r, t, k)}
+        entry = {f"max_abs_{unit}": float(abs(off[k, i])), "at": _at(att, k)}
         if travel is not None:
             entry[f"travel_{unit}"] = float(travel[i])
             entry["ratio"] = float(abs(off[k, i]) / travel[i]) if travel[i] > 0 else float("inf")
             if entry["ratio"] > 1.0:
                 problems.append(f"{axis} offset {off[k, i]:.6g} {unit} beyond the travel ±{travel[i]:.6g} {unit} at "
-                                f"elevation {e[k]:g}°, rotation {r[k]:g}°, {t[k]:g} °C")
+                                f"{_where(att, k)}")
         offsets[axis] = entry
     struts = None
     if mechanism is not None:
-        struts, strut_problems = _strut_check(mechanism, off, e, r, t, strut_limit_um)
+        struts, strut_problems = _strut_check(mechanism, off, att, strut_limit_um)
         problems += strut_problems
     result = None
     if campaign is not None:
@@ -105,20 +128,19 @@ def check_table(table: CompensationTable, mechanism: AbstractMechanism | None = 
     return TableCheck(offsets, struts, result, tuple(problems))
 
 
-def _strut_check(mechanism, off, e, r, t, strut_limit_um):
+def _strut_check(mechanism, off, att, strut_limit_um):
     dq, margin, ok = strut_changes(mechanism, off)
     k = np.unravel_index(int(np.argmax(np.abs(dq))), dq.shape)
     m = np.unravel_index(int(np.argmin(margin)), margin.shape)
-    struts = {"max_abs_change_um": float(abs(dq[k])), "strut": int(k[1]) + 1, "at": _at(e, r, t, k[0]),
-              "min_margin_mm": float(margin[m]), "min_margin_strut": int(m[1]) + 1, "min_margin_at": _at(e, r, t, m[0]),
+    struts = {"max_abs_change_um": float(abs(dq[k])), "strut": int(k[1]) + 1, "at": _at(att, k[0]),
+              "min_margin_mm": float(margin[m]), "min_margin_strut": int(m[1]) + 1, "min_margin_at": _at(att, m[0]),
               "limit_um": strut_limit_um}
     problems = []
     if not ok.all() or margin[m] < 0:
-        problems.append(f"strut {m[1] + 1} beyond its limit (margin {margin[m]:.4g} mm) at elevation {e[m[0]]:g}°, "
-                        f"rotation {r[m[0]]:g}°, {t[m[0]]:g} °C")
+        problems.append(f"strut {m[1] + 1} beyond its limit (margin {margin[m]:.4g} mm) at {_where(att, m[0])}")
     if strut_limit_um is not None and abs(dq[k]) > strut_limit_um:
-        problems.append(f"strut {k[1] + 1} changes by {dq[k]:.6g} µm, beyond ±{strut_limit_um:g} µm, at elevation "
-                        f"{e[k[0]]:g}°, rotation {r[k[0]]:g}°, {t[k[0]]:g} °C")
+        problems.append(f"strut {k[1] + 1} changes by {dq[k]:.6g} µm, beyond ±{strut_limit_um:g} µm, at "
+                        f"{_where(att, k[0])}")
     return struts, problems
 
 
@@ -167,18 +189,19 @@ def diff_tables(a: CompensationTable, b: CompensationTable, mechanism: AbstractM
     e2, r2, t2 = domain.grid(b)
     if t2.size > t.size:
         e, r, t = e2, r2, t2
+    att = {"elevation_deg": e, "rotation_deg": r, "temperature_degC": t}
     oa, ob = np.asarray(a.offsets(e, r, 0.0, t)), np.asarray(b.offsets(e, r, 0.0, t))
     d = oa - ob
     offsets = {}
     for i, (axis, unit) in enumerate(zip(AXES, AXIS_UNITS, strict=True)):
         k = int(np.argmax(np.abs(d[:, i])))
         offsets[axis] = {f"max_abs_diff_{unit}": float(abs(d[k, i])), f"a_{unit}": float(oa[k, i]),
-                         f"b_{unit}": float(ob[k, i]), "at": _at(e, r, t, k)}
+                         f"b_{unit}": float(ob[k, i]), "at": _at(att, k)}
     struts = None
     if mechanism is not None:
         dd = strut_changes(mechanism, oa)[0] - strut_changes(mechanism, ob)[0]
         struts = {}
         for j in range(6):
             k = int(np.argmax(np.abs(dd[:, j])))
-            struts[f"strut{j + 1}"] = {"max_abs_diff_um": float(abs(dd[k, j])), "at": _at(e, r, t, k)}
+            struts[f"strut{j + 1}"] = {"max_abs_diff_um": float(abs(dd[k, j])), "at": _at(att, k)}
     return TableDiff(offsets, struts)
