@@ -12,7 +12,8 @@ from pathlib import Path
 import jax
 import numpy as np
 import pytest
-from numpy.polynomial.polynomial import polyvander2d
+import yaml
+from numpy.polynomial.polynomial import polyval2d, polyvander2d
 
 from stewart_jax._cli import main
 from stewart_jax.compensation import (
@@ -178,6 +179,11 @@ def test_simulate_campaign_fit_check_through_the_command_line(tmp_path):
     assert main(["lut", "fit", str(camp), "--out", str(lut), "--json", str(js)]) == 0
     doc = json.loads(js.read_text())
     assert set(doc["axes"]) == set("xyzuvw") and "prediction_std_max_um" in doc["axes"]["x"]
+    # the written file, evaluated as the controller does (numpy's polyval2d of the YAML's lists)
+    cfg = yaml.safe_load(lut.read_text())["camera_config"]
+    e, r = np.array([0.0, 33.0, 90.0]), np.array([-80.0, 10.0, 90.0])
+    want = np.stack([polyval2d(e, r, np.asarray(c, float)) for c in cfg["elevation_rotation_coeffs"]], axis=1)
+    np.testing.assert_allclose(np.asarray(load_table(lut).offsets(e, r)), want, rtol=1e-12, atol=1e-9)
     assert main(["lut", "check", str(V7), str(lut), "--campaign", str(camp)]) == 0
     e = np.linspace(0, 90, 10)
     assert np.abs(np.asarray(load_table(lut).offsets(e, 30.0)) - np.asarray(load_table(V7).offsets(e, 30.0)))[
