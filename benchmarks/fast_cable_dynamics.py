@@ -57,7 +57,8 @@ from stewart_jax.cable_robot import (  # noqa: E402
     static_equilibrium,
     workspace_map,
 )
-from stewart_jax.cable_robot._lumped import _low_prepare_jit, catenary_nodes  # noqa: E402
+from stewart_jax.cable_robot._lumped import catenary_nodes  # noqa: E402
+from stewart_jax.cable_robot._lumped_low import _low_prepare_jit  # noqa: E402
 from stewart_jax.cable_robot._lumped_scenario import lumped_scenario  # noqa: E402
 
 static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)

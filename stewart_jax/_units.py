@@ -19,6 +19,12 @@ ARCSEC = np.pi / (180.0 * 3600.0)
 UM = 1e-3
 """One micrometre in mm."""
 
+TRAVEL_MM = 1.0
+"""The default translation travel, ±1 mm (Wang et al. 2018, §4): the pose box of simulated
+measurements and of the unit-slip checks when a mechanism publishes no travel."""
+TRAVEL_RAD = float(np.deg2rad(1.0))
+"""The default rotation travel, ±1° (Wang et al. 2018, §4)."""
+
 COMPONENTS = ("dx", "dy", "dz", "phi", "theta", "psi")
 """Pose components in report order; the first three in µm, the last three in arc-seconds."""
 

@@ -18,8 +18,8 @@ from stewart_jax.cable_robot._lumped import (
     lumped_potential,
     lumped_statics,
     lumped_stiffness_schur,
-    modal_summary,
 )
+from stewart_jax.cable_robot._lumped_low import modal_summary
 
 static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)
 

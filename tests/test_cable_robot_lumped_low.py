@@ -9,14 +9,9 @@ import pytest
 import scipy.linalg
 
 import stewart_jax  # noqa: F401
-from stewart_jax.cable_robot import _lumped, _lumped_blocks as blocks, paper_fast_params
-from stewart_jax.cable_robot._lumped import (
-    catenary_nodes,
-    lumped_low_modes,
-    lumped_modes,
-    lumped_potential,
-    modal_summary,
-)
+from stewart_jax.cable_robot import _lumped_blocks as blocks, _lumped_low, paper_fast_params
+from stewart_jax.cable_robot._lumped import catenary_nodes, lumped_modes, lumped_potential
+from stewart_jax.cable_robot._lumped_low import lumped_low_modes, modal_summary
 from stewart_jax.cable_robot._statics import static_equilibrium_jit
 from stewart_jax.cable_robot._workspace import assembly_centre_of_mass
 
@@ -137,7 +132,7 @@ def test_a_failed_check_falls_back_on_the_dense_route(monkeypatch):
     def fail(*args, **kwargs):
         raise np.linalg.LinAlgError("not positive definite")
 
-    monkeypatch.setattr(_lumped, "_rayleigh_ritz", fail)
+    monkeypatch.setattr(_lumped_low, "_rayleigh_ritz", fail)
     low = lumped_low_modes(PARAMS, pos, N, 1.5, static=st)
     dense = lumped_modes(PARAMS, pos, N, static=st)
     assert low.method == "dense"
@@ -154,7 +149,7 @@ def test_a_poor_vector_is_recomputed_with_a_moved_shift(monkeypatch):
     st = static_equilibrium_jit(PARAMS, pos, R)
     dense = lumped_modes(PARAMS, pos, N, static=st)
     K, M = np.asarray(dense.stiffness), np.asarray(dense.mass)
-    real, calls = _lumped._inverse_iteration_jit, []
+    real, calls = _lumped_low._inverse_iteration_jit, []
 
     def spoiled(prep, lam, tau, chunk, label):
         V, MV, KV = (np.array(a) for a in real(prep, lam, tau, chunk, label))
@@ -166,7 +161,7 @@ def test_a_poor_vector_is_recomputed_with_a_moved_shift(monkeypatch):
             KV[:, 5] += K @ e
         return V, MV, KV
 
-    monkeypatch.setattr(_lumped, "_inverse_iteration_jit", spoiled)
+    monkeypatch.setattr(_lumped_low, "_inverse_iteration_jit", spoiled)
     low = lumped_low_modes(PARAMS, pos, N, 1.5, static=st)
     assert 1000 in calls and low.method == "banded"
     k = low.frequencies_hz.shape[0]

@@ -2,35 +2,116 @@
 
 ``docs/conventions.md`` lists the files and JSON keys each subcommand reads and writes. This
 package is the only place in stewart_jax that uses argparse.
+
+A subcommand's module (and with it JAX) is imported only when that subcommand is named: the
+top-level parser knows each subcommand by the one line of :data:`COMMANDS`, so that
+``stewart-jax --help``, ``--version`` and a misspelt subcommand answer in the time of a bare
+Python start. A misspelt subcommand, option or choice gets the closest names as a suggestion.
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
+import difflib
+import importlib
+import re
 import sys
 from collections.abc import Sequence
 
-from . import calibrate, diagnose, export, fast, lut, simulate, study
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "simulate": ("simulate", "add_parser",
+                 "write simulated measured data of any mechanism as CSV (poses in its travel)"),
+    "calibrate": ("calibrate", "add_parser", "calibrate a mechanism's parameters from a measured CSV"),
+    "study": ("study", "add_parser", "the Table 2 simulation study of Wang et al. (2018) over many seeds"),
+    "diagnose": ("diagnose", "add_diagnose_parser", "model-discrepancy workflow: detect, name, add, show"),
+    "simulate-effect": ("diagnose", "add_diagnose_parser", "simulated measured data with one hidden effect (CSV)"),
+    "fast": ("fast", "add_fast_parser",
+             "FAST feed support: cable + Stewart coupled vibration scenario (Yin et al., Table 2)"),
+    "export": ("export", "add_parser", "write a geometry as JSON or as LinuxCNC genhexkins settings"),
+    "lut": ("lut", "add_parser", "compensation look-up tables (controller YAML): apply, fit, check, diff"),
+}
+"""``{subcommand: (module in stewart_jax._cli, its function that adds the parser, one line of help)}``."""
+
+EPILOG = """\
+compilation cache:
+  JAX compiles each numerical program once and keeps it on disk, so that later runs start in
+  seconds: by default in ~/.cache/stewart_jax/jax-<version>-jaxlib-<version> (the platform's
+  user cache folder), bounded to STEWART_JAX_CACHE_MAX_MB (default 1024). Environment:
+    STEWART_JAX_CACHE_DIR=<folder>   keep the cache there instead
+    STEWART_JAX_CACHE_DIR=off        no cache (every run compiles)
+  A cache you configured for JAX itself (JAX_COMPILATION_CACHE_DIR) is used as configured.
+"""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with "did you mean" for a misspelt subcommand, option or choice."""
+
+    def error(self, message):
+        super().error(message + _suggestion(message, self))
+
+
+class _LazyParsers(dict):
+    """The subcommand parsers by name, each built (its module imported) on first access."""
+
+    def __init__(self, prog: str):
+        super().__init__()
+        self.prog = prog
+        self.built: list[argparse.ArgumentParser] = []
+
+    def __getitem__(self, name: str) -> argparse.ArgumentParser:
+        parser = super().__getitem__(name)
+        if parser is None:
+            module, adder, _ = COMMANDS[name]
+            scratch = _Parser(prog=self.prog).add_subparsers(parser_class=_Parser)
+            getattr(importlib.import_module(f".{module}", __name__), adder)(scratch)
+            parser = scratch.choices[name]
+            self[name] = parser
+            self.built.append(parser)
+        return parser
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="stewart-jax", description="Hexapod (Stewart-platform) kinematics, calibration and dynamics (JAX)."
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
-    simulate.add_parser(sub)
-    calibrate.add_parser(sub)
-    study.add_parser(sub)
-    diagnose.add_diagnose_parser(sub)
-    fast.add_fast_parser(sub)
-    export.add_parser(sub)
-    lut.add_parser(sub)
+    from .. import __version__
+
+    parser = _Parser(prog="stewart-jax", epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+                     description="Hexapod (Stewart-platform) kinematics, calibration and dynamics (JAX).")
+    parser.add_argument("--version", action="version", version=f"stewart-jax {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub._name_parser_map = sub.choices = _LazyParsers(parser.prog)
+    for name, (_, _, line) in COMMANDS.items():
+        sub._choices_actions.append(sub._ChoicesPseudoAction(name, (), line))
+        dict.__setitem__(sub.choices, name, None)
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    import stewart_jax  # noqa: F401  (enables float64)
+def _suggestion(message: str, parser: argparse.ArgumentParser) -> str:
+    """``" (did you mean …?)"`` for a misspelt choice or option named in an argparse message."""
+    if m := re.search(r"invalid choice: (.+?) \(choose from (.*)\)$", message):
+        try:
+            value, choices = ast.literal_eval(m.group(1)), ast.literal_eval(f"[{m.group(2)}]")
+        except (ValueError, SyntaxError):
+            return ""
+        close = difflib.get_close_matches(str(value), [str(c) for c in choices], n=3, cutoff=0.6)
+        return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+    if m := re.search(r"unrecognized arguments: (.*)$", message):
+        options = [s for p in _parsers(parser) for a in p._actions for s in a.option_strings]
+        hints = []
+        for token in m.group(1).split():
+            if token.startswith("-"):
+                close = difflib.get_close_matches(token.split("=")[0], options, n=1, cutoff=0.75)
+                hints += [f"{close[0]} for {token}"] if close else []
+        return f" (did you mean {'; '.join(hints)}?)" if hints else ""
+    return ""
 
+
+def _parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """The parser and the subcommand parsers built so far (those named on the command line)."""
+    subs = [a.choices for a in parser._actions if isinstance(a.choices, _LazyParsers)]
+    return [parser] + [p for s in subs for p in s.built]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

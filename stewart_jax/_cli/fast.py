@@ -300,7 +300,8 @@ def _run_lumped(args, params, sol, out: dict) -> int:
     """Statics and modes of the cabin on lumped-mass cables (``--cables lumped --modes``)."""
     import jax.numpy as jnp
 
-    from ..cable_robot._lumped import CABIN_COORDINATES, lumped_modes, modal_summary
+    from ..cable_robot._lumped import CABIN_COORDINATES, lumped_modes
+    from ..cable_robot._lumped_low import modal_summary
 
     pos = jnp.asarray(args.position, jnp.float64)
     t0 = time.perf_counter()

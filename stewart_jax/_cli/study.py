@@ -13,7 +13,8 @@ def run(args: argparse.Namespace) -> int:
     from ..study._study import format_study_table, run_study
 
     check_outputs(args, json="--json", plot="--plot", checkpoint="--checkpoint")
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    methods = (list(METHOD_REGISTRY) if args.methods.strip() == "all"
+               else [m.strip() for m in args.methods.split(",") if m.strip()])
     unknown = sorted(set(methods) - set(METHOD_REGISTRY))
     if unknown:
         raise SystemExit(f"unknown method(s) {unknown}; choose from {tuple(METHOD_REGISTRY)}")
@@ -53,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("study", help="the Table 2 simulation study of Wang et al. (2018) over many seeds")
-    p.add_argument("--methods", default="lm-batched", help=f"comma-separated, from {tuple(METHOD_REGISTRY)}")
+    p.add_argument("--methods", default="lm-batched",
+                   help=f"comma-separated, from {tuple(METHOD_REGISTRY)}, or 'all' (every registered method)")
     p.add_argument("--trials", type=int, default=10)
     geometry_args(p, true=True)
     p.add_argument("--seed", type=int, default=0)

@@ -47,9 +47,7 @@ catenary's Jacobian and starts, the platform's Newton–Euler dynamics, the inte
 :func:`run_scenario`, the modal sum and the record CSV's writer) are private.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._attitude import (
     AttitudeSolution as AttitudeSolution,
     smallest_feasible_tilt as smallest_feasible_tilt,
@@ -63,13 +61,15 @@ from ._catenary import (
 )
 from ._free_decay import lumped_free_decay as lumped_free_decay, quasi_static_free_decay as quasi_static_free_decay
 from ._lumped import (
-    LumpedLowModes as LumpedLowModes,
     LumpedModes as LumpedModes,
     LumpedStatics as LumpedStatics,
-    ModalSummary as ModalSummary,
-    lumped_low_modes as lumped_low_modes,
     lumped_modes as lumped_modes,
     lumped_statics as lumped_statics,
+)
+from ._lumped_low import (
+    LumpedLowModes as LumpedLowModes,
+    ModalSummary as ModalSummary,
+    lumped_low_modes as lumped_low_modes,
     modal_summary as modal_summary,
 )
 from ._lumped_time import LumpedTrajectory as LumpedTrajectory, simulate_lumped as simulate_lumped
@@ -97,6 +97,3 @@ from ._workspace import (
     workspace_map as workspace_map,
 )
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

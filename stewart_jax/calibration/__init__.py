@@ -23,9 +23,7 @@ adjusting mechanism", Infrared and Laser Engineering 47(5), 2018, §1.2–§4.
   :func:`calibrate_points`.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from .._units import error_in_report_units as error_in_report_units
 from ._assessment import CalibrationAssessment as CalibrationAssessment, assess_calibration as assess_calibration
 from ._csv import read_csv as read_csv, write_csv as write_csv
@@ -72,6 +70,3 @@ from ._simulation import (
     validation_poses as validation_poses,
 )
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

@@ -114,9 +114,6 @@ register_method("cma-es", "CMA-ES", CMAES, "box", "Hansen 2016, The CMA Evolutio
 register_method("de", "DE (rand/1/bin)", DifferentialEvolution, "box", "Storn & Price 1997")
 register_method("pso", "PSO", ParticleSwarm, "box", "Kennedy & Eberhart 1995; Shi & Eberhart 1998 (inertia)")
 
-METHODS = tuple(METHOD_REGISTRY)
-"""The registered method names, in registration order (at import time)."""
-
 DEFAULT_MAX_EVALUATIONS = 100_000
 """Default cost-evaluation budget of the metaheuristics (≈ 0.2 s of vmapped cost evaluations
 on one CPU core for the 8-pose problem)."""

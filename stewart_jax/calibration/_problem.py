@@ -177,6 +177,26 @@ def _population_objective_jvp(primals, tangents):
 
 @jax.custom_batching.custom_vmap
 def _batched_cost(params, problem):
+    return _cost_in_own_program(params, problem)
+
+
+@eqx.filter_jit
+def _cost_in_own_program(params, problem):
+    """``problem.cost(params)`` behind a ``jit`` boundary, so that ``_batched_cost`` closes over
+    no constant.
+
+    NOTE: jax 0.10's ``custom_vmap`` hoists every array constant its function creates while
+    tracing (here: a family's NumPy constants, e.g. a slider axis) into constants of its call,
+    and its batching rule asserts that none of them is batched
+    (``assert not any(tree_leaves(consts_batched))`` in ``jax/_src/custom_batching.py``). But
+    ``lax.cond`` under ``vmap`` with a batched predicate broadcasts *every* operand of its
+    branches, those hoisted constants included — so an objective evaluated at one point inside
+    a ``cond`` branch of a vmapped solver (Nelder–Mead's shrink-or-replace step, run over the
+    trials of a study) failed with a bare ``AssertionError``. Behind ``jit`` the constants stay
+    inside the jitted call's own closed jaxpr, which no batching rule rewrites. The reduction
+    is ``benchmarks/jax_custom_vmap_cond_constants.py``; no upstream report was found for jax
+    0.10.2. XLA inlines the call, so the compiled program is the same.
+    """
     return problem.cost(params)
 
 

@@ -23,14 +23,10 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, PRNGKeyArray
 
 from .._math import euler_angles, rotation_matrix
+from .._units import TRAVEL_MM, TRAVEL_RAD
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._problem import ARCSEC, UM, CalibrationData
-
-TRAVEL_MM = 1.0
-"""Translation travel ±1 mm (Wang et al. 2018, §4)."""
-TRAVEL_RAD = float(np.deg2rad(1.0))
-"""Rotation travel ±1° (Wang et al. 2018, §4)."""
 
 PLANS = ("paper8", "plan120", "validation42")
 

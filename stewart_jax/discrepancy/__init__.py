@@ -24,7 +24,6 @@ vibration against the paper's quasi-static cables: :func:`read_cabin_record`,
 
 from typing import Any as _Any
 
-from .. import _moved
 from . import _effects as _effects, _rus as _rus, _ups_effects as _ups_effects  # register every family's candidates
 from ._driver import diagnose as diagnose
 from ._families import (
@@ -68,7 +67,7 @@ def __getattr__(name: str) -> _Any:
         from . import _cabin_record
 
         return getattr(_cabin_record, name)
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:

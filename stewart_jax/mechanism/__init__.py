@@ -16,9 +16,8 @@
   :func:`max_travel` — the reachable workspace under the mechanism's limits, along rays.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
+from . import _ups_presets  # noqa: F401  (the 6-UPS presets register themselves)
 from ._abstract import AbstractMechanism as AbstractMechanism, IKSolution as IKSolution
 from ._batched import (
     forward_kinematics_newton as forward_kinematics_newton,
@@ -58,6 +57,3 @@ from ._workspace import (
     workspace_along_rays as workspace_along_rays,
 )
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

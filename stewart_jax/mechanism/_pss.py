@@ -37,6 +37,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import field_array, field_numpy, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
+from ._pss_table1 import ACTUAL_LOWER, ACTUAL_UPPER, NOMINAL_LOWER, NOMINAL_UPPER
 from ._registry import check_file_header, check_keys, register_family, register_preset
 
 N_LEGS = 6
@@ -541,58 +542,16 @@ def _as_float64(x: ArrayLike, name: str, shape: tuple[int, ...]) -> Array:
     return field_array(x, "PSSMechanism", name, shape, unit="mm")
 
 
-# Wang et al. (2018), Table 1 (mm). Rows: rod 1..6.
-_NOMINAL_UPPER = np.array(
-    [
-        [103.6, 34.6, 84.7],
-        [-21.5, 107.1, 84.7],
-        [-81.8, 72.4, 84.7],
-        [-81.8, -72.4, 84.7],
-        [-21.5, -107.1, 84.7],
-        [103.6, -34.6, 84.7],
-    ]
-)
-_NOMINAL_LOWER = np.array(
-    [
-        [67.9, 61.8, -132.1],
-        [19.6, 89.7, -132.1],
-        [-87.5, 27.9, -132.1],
-        [-87.5, -27.9, -132.1],
-        [19.6, -89.7, -132.1],
-        [67.9, -61.8, -132.1],
-    ]
-)
-_ACTUAL_UPPER = np.array(
-    [
-        [103.7, 37.2, 79.2],
-        [-20.8, 106.7, 81.1],
-        [-83.7, 72.1, 90.9],
-        [-77.2, -76.1, 89.8],
-        [-21.1, -108.2, 85.1],
-        [102.2, -35.8, 86.7],
-    ]
-)
-_ACTUAL_LOWER = np.array(
-    [
-        [69.7, 63.7, -131.8],
-        [16.1, 90.2, -129.9],
-        [-86.5, 27.8, -131.7],
-        [-89.1, -28.3, -134.7],
-        [20.3, -93.0, -135.3],
-        [65.3, -68.7, -130.3],
-    ]
-)
-
 @register_preset("nominal", measured="actual")
 def nominal_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
     """The nominal parameters ``u_0`` of Wang et al. (2018), Table 1."""
-    return PSSMechanism(_NOMINAL_UPPER, _NOMINAL_LOWER, v0)
+    return PSSMechanism(NOMINAL_UPPER, NOMINAL_LOWER, v0)
 
 
 @register_preset("actual")
 def actual_geometry(v0: ArrayLike = (0.0, 0.0, 0.0)) -> PSSMechanism:
     """The "true" parameters ``u_a`` of Wang et al. (2018), Table 1, used by the simulation study."""
-    return PSSMechanism(_ACTUAL_UPPER, _ACTUAL_LOWER, v0)
+    return PSSMechanism(ACTUAL_UPPER, ACTUAL_LOWER, v0)
 
 
 def geometry_from_dict(d: dict[str, Any]) -> PSSMechanism:

@@ -48,7 +48,6 @@ import functools
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
@@ -56,7 +55,8 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import field_array, field_numbers, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
-from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
+from ._registry import check_file_header, check_geometry, check_keys, register_family
+from ._ups_checks import check_layout, warn_unit_slips
 
 N_LEGS = 6
 N_PARAMS_UPS = 42
@@ -64,9 +64,6 @@ N_PARAMS_UPS = 42
 _TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg")
 _FILE_KEYS = ("base", "platform", "v0", "lengths0", "stroke_limits", "joint_angle_limits", "joint_angle_limit",
               "travel")
-TRAVEL_CUT_FACTOR = 4.0
-"""A file whose limits shrink the reachable travel box more than this factor (against the same
-geometry without limits) gets a warning naming the limit and the likely unit slip."""
 
 
 @register_family
@@ -323,9 +320,9 @@ class UPSMechanism(AbstractMechanism):
             joint_angle_limit=angle,
             travel=travel,
         )
-        _check_layout(m)
+        check_layout(m)
         check_geometry(m)  # refusals before warnings
-        _warn_unit_slips(m)
+        warn_unit_slips(m)
         return m
 
 
@@ -477,227 +474,3 @@ def _angle_limit(x: Any) -> tuple[float, ...] | None:
 
 def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
     return None if x is None else field_travel(x, "UPSMechanism", ("x", "y", "z"), ("tilt", "rz"))  # type: ignore[return-value]
-
-
-# ---- geometry-file checks -----------------------------------------------------------------------
-
-
-def _check_layout(m: UPSMechanism) -> None:
-    """Physically impossible layouts, refused naming the leg and the value (the generic
-    :func:`~stewart_jax.mechanism._registry.check_geometry` follows: duplicate legs, the zero
-    pose, the Jacobian)."""
-    base, platform, v0 = np.asarray(m.base), np.asarray(m.platform), np.asarray(m.v0)
-    lengths0 = np.asarray(m.lengths0)
-    strut = platform + v0 - base
-    length = np.linalg.norm(strut, axis=-1)
-    size = max(float(np.max(np.linalg.norm(np.concatenate([base, platform + v0]), axis=-1))), 1e-300)
-    short = np.flatnonzero(length <= 1e-9 * size)
-    if short.size:
-        i = int(short[0])
-        raise ValueError(f"strut {i + 1} has zero length at the zero pose: its base joint {base[i].tolist()} mm is "
-                         f"its platform joint + v0 {(platform[i] + v0).tolist()} mm")
-    bad = np.flatnonzero(lengths0 <= 0)
-    if bad.size:
-        raise ValueError(f"lengths0 (the strut lengths at zero reading) must be > 0 mm: strut(s) "
-                         f"{(bad + 1).tolist()} have {lengths0[bad].tolist()} mm")
-    if np.all(np.abs(strut[:, 2]) <= 1e-9 * length):
-        raise ValueError("every strut is horizontal at the zero pose (no z component): the struts cannot hold "
-                         "the platform up (dz is free); check the z coordinates of base and platform")
-    for side, pts in (("base", base), ("platform", platform)):
-        centred = pts - pts.mean(axis=0)
-        sv = np.linalg.svd(centred, compute_uv=False)
-        if sv[1] <= 1e-9 * max(sv[0], 1e-300):
-            raise ValueError(f"the six {side} joints lie on one line ({pts.tolist()} mm): the struts cannot "
-                             "stop the platform turning about it; check the file's joint coordinates")
-
-
-def _warn_unit_slips(m: UPSMechanism) -> None:
-    """Warnings for plausible unit slips: a mechanism of centimetre size (metres in a file
-    labelled mm) or of a hundred metres (µm), and limits that cut the travel by more than
-    :data:`TRAVEL_CUT_FACTOR` (radians typed for degrees, metres for mm)."""
-    import warnings
-
-    joints = np.concatenate([np.asarray(m.base), np.asarray(m.platform) + np.asarray(m.v0)])
-    size = float(np.max(np.linalg.norm(joints, axis=-1)))
-    if size < 20.0:
-        warnings.warn(f"6-UPS geometry: the joints lie within {size:.3g} mm of the origin — a hexapod of "
-                      f"{size / 10:.2g} cm? Lengths are mm: a file in metres needs every length × 1000",
-                      UserWarning, stacklevel=3)
-    elif size > 1e5:
-        warnings.warn(f"6-UPS geometry: joints {size / 1e3:.3g} m from the origin — lengths are mm: a file in "
-                      "µm needs every length ÷ 1000", UserWarning, stacklevel=3)
-    if m.stroke_limits is not None:
-        span = max(hi - lo for lo, hi in m.stroke_limits)
-        longest = float(np.max(np.asarray(m.lengths0)))
-        if span > 2 * longest:
-            warnings.warn(f"6-UPS geometry: stroke_limits spanning {span:.4g} mm, more than twice the longest strut "
-                          f"({longest:.4g} mm): micrometres typed where mm are expected?", UserWarning, stacklevel=3)
-    if m.stroke_limits is None and m.joint_angle_limit is None:
-        return
-    full = _reachable_scale(UPSMechanism(m.base, m.platform, m.v0, m.lengths0, travel=m.travel))
-    limited = _reachable_scale(m)
-    if limited * TRAVEL_CUT_FACTOR >= full:
-        return
-    causes = []
-    if m.joint_angle_limit is not None:
-        deg = float(np.rad2deg(min(m.joint_angle_limit)))
-        only_angle = UPSMechanism(m.base, m.platform, m.v0, m.lengths0, joint_angle_limit=m.joint_angle_limit,
-                                  travel=m.travel)
-        if _reachable_scale(only_angle) * TRAVEL_CUT_FACTOR < full:
-            causes.append(f"joint_angle_limits of {deg:.3g}° (radians typed where degrees are expected? "
-                          f"{deg:.3g} rad = {np.rad2deg(deg):.3g}°)" if deg < 3.0 else
-                          f"joint_angle_limits of {deg:.3g}°")
-    if m.stroke_limits is not None:
-        only_stroke = UPSMechanism(m.base, m.platform, m.v0, m.lengths0, stroke_limits=m.stroke_limits,
-                                   travel=m.travel)
-        if _reachable_scale(only_stroke) * TRAVEL_CUT_FACTOR < full:
-            span = min(hi - lo for lo, hi in m.stroke_limits)
-            causes.append(f"stroke_limits spanning {span:.3g} mm (metres typed where mm are expected? "
-                          f"{span:.3g} m = {span * 1e3:.3g} mm)" if span < 1.0 else
-                          f"stroke_limits spanning {span:.3g} mm")
-    cut = f"{full / limited:.3g}×" if limited > 0 else "to nothing"
-    warnings.warn(
-        f"6-UPS geometry: the limits cut the reachable travel {cut} (more than {TRAVEL_CUT_FACTOR:g}×) against "
-        f"the same struts without limits: {'; '.join(causes) or 'the limits together'}", UserWarning, stacklevel=3)
-
-
-_SCALES = 2.0 ** (-np.arange(41) / 4.0)  # 1 … 1/1024 in steps of 19%
-
-
-@jax.jit
-def _reachable_jit(m: UPSMechanism, poses: Array) -> Array:
-    return m.solve_inverse_kinematics(poses).reachable  # jitted: one compilation, not one per op
-
-
-def _reachable_scale(m: UPSMechanism) -> float:
-    """The largest ``s`` of :data:`_SCALES` for which the corners and axis ends of ``s`` × the
-    travel box (default ±1 mm / ±1°) are reachable, and those of every smaller ``s`` (0 if none):
-    one batched inverse kinematics (the bisection of ``reachable_travel`` would compile op by
-    op at each file load)."""
-    import itertools
-
-    from ..calibration._simulation import TRAVEL_MM, TRAVEL_RAD
-
-    half = m.travel_half_widths
-    half = np.array([TRAVEL_MM] * 3 + [TRAVEL_RAD] * 3) if half is None else half
-    unit = np.concatenate([np.array(list(itertools.product((1.0, -1.0), repeat=6))),
-                           np.eye(6), -np.eye(6)]) * half
-    ok = np.asarray(_reachable_jit(m, jnp.asarray(_SCALES[:, None, None] * unit))).all(axis=1)
-    bad = np.flatnonzero(~ok)
-    last_bad = bad.max() if bad.size else -1
-    return float(_SCALES[last_bad + 1]) if last_bad + 1 < len(_SCALES) else 0.0
-
-
-# ---- presets ----------------------------------------------------------------------------------
-
-# Strut-end coordinates published with the Rubin Observatory's hexapod control software (µm there,
-# mm here). The moving ends turn about the pivot; platform = moving − pivot, base = fixed,
-# v0 = pivot.
-_RUBIN_CAMERA_MOVING = np.array(
-    [
-        [227600, 653800, -525000],
-        [-227600, 653800, -525000],
-        [-680000, -129700, -525000],
-        [-452300, -524000, -525000],
-        [452300, -524000, -525000],
-        [680000, -129700, -525000],
-    ],
-    dtype=np.float64,
-) / 1000.0
-_RUBIN_CAMERA_FIXED = np.array(
-    [
-        [472800, 512200, -121400],
-        [-472800, 512200, -121400],
-        [-680000, 153300, -121400],
-        [-207200, -665500, -121400],
-        [207200, -665500, -121400],
-        [680000, 153300, -121400],
-    ],
-    dtype=np.float64,
-) / 1000.0
-_RUBIN_CAMERA_PIVOT = np.array([0.0, 0.0, -2758400.0]) / 1000.0
-
-_RUBIN_M2_MOVING = np.array(
-    [
-        [0, 1701800, 114300],
-        [-1542350, -719210, 114300],
-        [1542350, -719210, 114300],
-        [790, 1460490, 228600],
-        [-1503370, 7660, 228600],
-        [1503370, 7660, 228600],
-    ],
-    dtype=np.float64,
-) / 1000.0
-_RUBIN_M2_FIXED = np.array(
-    [
-        [0, 1701800, 607300],
-        [-1542350, -719210, 607300],
-        [1542350, -719210, 607300],
-        [493790, 1460490, 228600],
-        [-1256870, -419290, 228600],
-        [1256870, -419290, 228600],
-    ],
-    dtype=np.float64,
-) / 1000.0
-_RUBIN_M2_PIVOT = np.array([0.0, 0.0, -703000.0]) / 1000.0
-
-
-@register_preset("rubin_camera")
-def rubin_camera() -> UPSMechanism:
-    """The Rubin Observatory camera hexapod (published strut ends, µm → mm): readings ±14.1 mm;
-    travel |x|, |y| ≤ 11.4 mm, |z| ≤ 13.1 mm, tilts ≤ 0.36°, rotation about z ≤ 0.10°."""
-    return UPSMechanism(
-        _RUBIN_CAMERA_FIXED,
-        _RUBIN_CAMERA_MOVING - _RUBIN_CAMERA_PIVOT,
-        _RUBIN_CAMERA_PIVOT,
-        stroke_limits=(-14.1, 14.1),
-        travel=(11.4, 11.4, 13.1, float(np.deg2rad(0.36)), float(np.deg2rad(0.10))),
-    )
-
-
-@register_preset("rubin_m2")
-def rubin_m2() -> UPSMechanism:
-    """The Rubin Observatory M2 hexapod (three axial and three lateral struts; published strut
-    ends, µm → mm): travel |x|, |y| ≤ 10.5 mm, |z| ≤ 8.9 mm, tilts ≤ 0.175°, z rotation ≤ 0.05°.
-    No stroke limits are published with the coordinates; none are set."""
-    return UPSMechanism(
-        _RUBIN_M2_FIXED,
-        _RUBIN_M2_MOVING - _RUBIN_M2_PIVOT,
-        _RUBIN_M2_PIVOT,
-        travel=(10.5, 10.5, 8.9, float(np.deg2rad(0.175)), float(np.deg2rad(0.05))),
-    )
-
-
-def _joint_circle(radius: float, short_edge: float, centres_deg: tuple[float, ...], first_low: bool) -> np.ndarray:
-    """Six joints on a circle in three pairs of chord ``short_edge`` about ``centres_deg`` (m);
-    the numbering of the FAST Stewart platform's joints (see :func:`fast_stewart`)."""
-    alpha = np.arcsin(short_edge / (2.0 * radius))
-    c = np.deg2rad(np.asarray(centres_deg))
-    if first_low:
-        ang = np.array([c[0] - alpha, c[0] + alpha, c[1] - alpha, c[1] + alpha, c[2] - alpha, c[2] + alpha])
-    else:
-        ang = np.array([c[0] + alpha, c[1] - alpha, c[1] + alpha, c[2] - alpha, c[2] + alpha, c[0] - alpha])
-    return np.stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(6)], axis=-1)
-
-
-FAST_STEWART_TRAVEL = (10.0, 10.0, 10.0, float(np.deg2rad(1.0)), float(np.deg2rad(1.0)))
-"""The ``fast_stewart`` preset's travel (our choice; Yin et al. give none): ±10 mm on each axis,
-the 0.01 m amplitude of the lower platform's motion in their simulation, and ±1° on each angle,
-the angular travel the library uses for the 2018 calibration study."""
-
-
-@register_preset("fast_stewart")
-def fast_stewart() -> UPSMechanism:
-    """The Stewart platform in the FAST feed cabin (Yin, Jiang, Chen, Yao, Table 1) as a 6-UPS
-    in mm: base = the upper platform B fixed to the cabin, joints on ``r_B = 2.0 m`` in pairs
-    ``(B6, B1), (B2, B3), (B4, B5)`` of chord 0.349 m centred at 30°, 150°, 270°; platform = the
-    lower platform P, joints on ``r_P = 0.98 m`` in pairs ``(P1, P2), (P3, P4), (P5, P6)`` of
-    chord 0.256 m centred at 90°, 210°, 330° (the layout the cable-robot model uses); v0 = P's
-    origin in B, ``(0, 0, h)`` with ``h = −1.7 m``. Struts ≈ 2.0 m. Travel:
-    :data:`FAST_STEWART_TRAVEL`. No limits are given in the paper; none are set."""
-    return UPSMechanism(
-        _joint_circle(2.0, 0.349, (30.0, 150.0, 270.0), first_low=False) * 1e3,
-        _joint_circle(0.98, 0.256, (90.0, 210.0, 330.0), first_low=True) * 1e3,
-        (0.0, 0.0, -1700.0),
-        travel=FAST_STEWART_TRAVEL,
-    )

@@ -23,9 +23,7 @@ implement ``step`` with the building blocks of ``_driver`` (``evaluate``, ``gree
 RESULTS.successful``), :func:`status_name` their stable names.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._batched_lm import (
     BatchedLevenbergMarquardt as BatchedLevenbergMarquardt,
     Blocks as Blocks,
@@ -49,6 +47,3 @@ from ._simplex import NelderMead as NelderMead, SimplexCoefficients as SimplexCo
 from ._smcs import SMCS as SMCS
 from ._vsa_smcs import VSASMCS as VSASMCS
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

@@ -24,9 +24,7 @@ markers or dashed lines labelled "paper".
 - compensation tables: :func:`plot_table_offsets`.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._cable_robot import (
     plot_fast_focal_map as plot_fast_focal_map,
     plot_fast_frequencies as plot_fast_frequencies,
@@ -53,6 +51,3 @@ from ._discrepancy import (
 )
 from ._mechanism import plot_workspace as plot_workspace
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement

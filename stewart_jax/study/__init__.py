@@ -8,9 +8,7 @@ the median ratio), :func:`data_profiles` (Moré–Wild) and :func:`best_within_b
 curves); :func:`simulate_trials` and :func:`trial_keys` give the study's trials to other methods.
 """
 
-from typing import Any as _Any
 
-from .. import _moved
 from ._statistics import (
     best_within_budgets as best_within_budgets,
     data_profiles as data_profiles,
@@ -24,6 +22,3 @@ from ._study import (
     trial_keys as trial_keys,
 )
 
-
-def __getattr__(name: str) -> _Any:
-    return _moved.moved(__name__, name)  # an old public name: a DeprecationWarning naming its replacement
