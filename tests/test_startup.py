@@ -70,7 +70,7 @@ def test_every_subcommand_is_listed_with_its_modules_help_line():
 
 def _minimal_args(name: str) -> list[str]:
     return {"simulate": ["--out", "x.csv"], "calibrate": ["x.csv"], "diagnose": ["x.csv"],
-            "simulate-effect": ["--out", "x.csv"], "export": ["nominal"]}.get(name, [])
+            "simulate-effect": ["--out", "x.csv"], "export": ["nominal"], "lut": ["check", "x.yaml"]}.get(name, [])
 
 
 @pytest.mark.parametrize(("argv", "hint"), [
