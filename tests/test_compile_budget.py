@@ -78,6 +78,47 @@ def test_nine_and_twelve_poses_share_one_program():
     assert lowered.count(LOWERED) == 0
 
 
+def test_another_step_budget_or_tolerance_reuses_the_program():
+    """The batched LM's step budget, tolerances and damping are arguments of its program, not
+    constants in it: the same numbers as a solver with them as Python numbers, no new program."""
+    problem = simulated(8, 5)
+    key = jax.random.key(0)
+    first = sj.calibrate(problem, "lm-batched", key)
+    static = _methods._run_one(_methods.make_solver("lm-batched", None), problem, key, 1000)
+    np.testing.assert_array_equal(np.asarray(first.params), np.asarray(static.params))
+    assert float(first.cost) == float(static.cost) and int(first.n_evaluations) == int(static.n_evaluations)
+    lowered = []
+
+    def listen(name, _duration, **_):
+        lowered.append(name)
+
+    monitoring.register_event_duration_secs_listener(listen)
+    try:
+        other = sj.calibrate(problem, "lm-batched", key, max_steps=3, ftol=1e-6, xtol=1e-9)
+        jax.block_until_ready(other.params)
+    finally:
+        monitoring.unregister_event_duration_listener(listen)
+    assert lowered.count(LOWERED) == 0
+    assert int(other.n_evaluations) <= 4 < int(first.n_evaluations)  # the budget of 3 steps is obeyed
+
+
+def test_the_chi2_tails_match_jax():
+    """The host-side regularized incomplete gamma of the report against JAX's."""
+    from jax.scipy.special import gammainc, gammaincc
+
+    from stewart_jax._special import regularized_gamma
+
+    for a in (0.5, 1.0, 2.5, 6.0, 12.0, 30.0, 100.0, 500.0):
+        for x in (1e-3, 0.1, 1.0, 5.0, 29.0, 31.0, 100.0, 400.0, 600.0):
+            p, q = regularized_gamma(a, x)
+            assert p == pytest.approx(float(gammainc(a, x)), rel=1e-12, abs=1e-300)
+            assert q == pytest.approx(float(gammaincc(a, x)), rel=1e-12, abs=1e-300)
+    assert regularized_gamma(3.0, 0.0) == (0.0, 1.0)
+    for bad in ((0.0, 1.0), (1.0, -1.0), (float("nan"), 1.0)):
+        with pytest.raises(ValueError, match="regularized_gamma"):
+            regularized_gamma(*bad)
+
+
 # A typical session, as a user types it: simulate, calibrate three pose counts, diagnose, the FAST
 # modes, in one process (a program lowered once serves every later command of the session).
 # Measured: 419 programs before the calibration's checks, the simulation's inverse kinematics and

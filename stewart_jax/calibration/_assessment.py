@@ -33,9 +33,9 @@ from typing import NamedTuple
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.special import gammainc, gammaincc
 from jaxtyping import Float
 
+from .._special import regularized_gamma
 from .._units import report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import ik_and_jacobian, solve_inverse_kinematics
@@ -163,14 +163,14 @@ def assess_calibration(
             "noise explains. Likely causes: the units (poses in mm and degrees, readings in mm: angles in "
             "radians under a degree header, or a file in metres), the wrong geometry for this mechanism "
             "(--geometry), or the wrong parameter set (--param-set); the calibrated values are not to be used")
-    p = float(gammaincc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")
+    # the two tails: low = P(χ² ≤ observed), p = P(χ² ≥ observed)
+    low, p = regularized_gamma(dof / 2.0, chi2 / 2.0) if dof > 0 else (float("nan"), float("nan"))
     ratio = float(np.sqrt(chi2 / dof)) if dof > 0 else float("nan")
     if dof > 0 and p < FIT_P_VALUE:
         warnings.append(
             f"the residuals are {ratio:.3g}× what the stated noise (σ = {sigma_um} µm, {sigma_arcsec}″) explains "
             f"(χ² = {chi2:.4g} on {dof} degrees of freedom, p = {p:.2g}): wrong units (mm and degrees are "
             "expected), a wrong σ, or an effect the model lacks — run `stewart-jax diagnose` to name it")
-    low = float(gammainc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")  # P(χ² ≤ observed)
     if dof > 0 and low < FIT_P_VALUE:
         warnings.append(
             f"the residuals are smaller than the stated noise allows (χ² = {chi2:.4g} on {dof} degrees of freedom, "

@@ -289,7 +289,18 @@ def calibrate(
     budget = _check_budget(max_evaluations, solver, problem)
     if METHOD_REGISTRY[method].kind == "least_squares":
         problem = padded(problem)
+    if isinstance(solver, BatchedLevenbergMarquardt):
+        solver = _traced_settings(solver)
     return _run_one(solver, problem, key, budget)
+
+
+def _traced_settings(solver: BatchedLevenbergMarquardt) -> BatchedLevenbergMarquardt:
+    """The batched LM with its step budget, tolerances and damping as arrays, so that one
+    compiled program serves every ``max_steps``, ``ftol``, ``xtol``, ``gtol`` and damping (as
+    Python numbers each value compiles its own); the same operations on the same values."""
+    names = ("max_steps", "ftol", "xtol", "gtol", "initial_damping", "min_damping")
+    values = tuple(jnp.asarray(getattr(solver, k), jnp.int32 if k == "max_steps" else jnp.float64) for k in names)
+    return eqx.tree_at(lambda s: tuple(getattr(s, k) for k in names), solver, values)
 
 
 def calibrate_batch(
