@@ -22,13 +22,8 @@ from _common import write_results  # noqa: E402
 from stewart_jax.calibration import plan_poses, reachable_travel  # noqa: E402
 from stewart_jax.calibration._assessment import _determination  # noqa: E402
 from stewart_jax.calibration._determined import determine, prior_scale  # noqa: E402
-from stewart_jax.calibration._points import (  # noqa: E402
-    _jacobian_at,
-    _problem,
-    default_targets,
-    simulate_points,
-    start_values,
-)
+from stewart_jax.calibration._points import _jacobian_at, _problem, start_values  # noqa: E402
+from stewart_jax.calibration._points_simulation import default_targets, simulate_points  # noqa: E402
 from stewart_jax.mechanism import preset, presets  # noqa: E402
 
 

@@ -48,7 +48,7 @@ from stewart_jax.calibration import (  # noqa: E402
     validation_poses,
 )
 from stewart_jax.calibration._identifiability import predicted_control_error_std  # noqa: E402
-from stewart_jax.calibration._points import default_targets, simulate_points  # noqa: E402
+from stewart_jax.calibration._points_simulation import default_targets, simulate_points  # noqa: E402
 from stewart_jax.mechanism import preset  # noqa: E402
 
 UNITS = np.array([1e3] * 3 + [180 / np.pi * 3600] * 3)  # mm → µm, rad → ″
