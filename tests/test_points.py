@@ -242,7 +242,7 @@ def test_calibrated_joints_near_the_truth_and_export_checks_support(run, tmp_pat
     err = np.abs(np.asarray(cal.params) - np.asarray(true.params))
     assert np.all(std <= 1.0 + 1e-9) and np.all(err <= 4 * std) and np.max(err) < 5.0
     assert cli_main(["export", str(d / "cal.json"), "--format", "linuxcnc", "--out", str(tmp_path / "cnc"),
-                     "--stroke-limits-mm", "-20,20"]) == 0
+                     "--stroke-limits-mm=-20,20"]) == 0
     record = json.loads((d / "cal.json").read_text())
     moved = dict(record)
     moved["platform"] = (np.asarray(record["platform"]) + [0.0, 0.0, 5.0]).tolist()
@@ -251,7 +251,7 @@ def test_calibrated_joints_near_the_truth_and_export_checks_support(run, tmp_pat
     bad.write_text(json.dumps(moved))
     capsys.readouterr()
     assert cli_main(["export", str(bad), "--format", "linuxcnc", "--out", str(tmp_path / "cnc2"),
-                     "--stroke-limits-mm", "-20,20"]) != 0
+                     "--stroke-limits-mm=-20,20"]) != 0
     assert "further than its calibration data support" in capsys.readouterr().err
     assert not (tmp_path / "cnc2").exists()
     assert cli_main(["export", str(bad), "--out", str(tmp_path / "g.json"), "--allow-unsupported"]) == 0
