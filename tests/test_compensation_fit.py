@@ -196,7 +196,7 @@ def test_simulate_campaign_fit_check_through_the_command_line(tmp_path):
 def test_a_points_campaign_gives_the_truths_offsets(tmp_path, truth):
     """Target points of an optic displaced by the negative of the table's correction, measured
     with a noiseless tracker, give back the table's offsets through the rigid fits."""
-    from stewart_jax.calibration._points import default_registration, default_targets
+    from stewart_jax.calibration._points_simulation import default_registration, default_targets
     from stewart_jax.compensation._points import points_campaign, simulate_points_campaign
 
     camera = _camera()

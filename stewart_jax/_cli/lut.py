@@ -41,7 +41,7 @@ def _campaign(path: str, args):
 
     if "target" not in csv_rows(path)[1]:
         return read_campaign(path)
-    from ..calibration._points import read_targets
+    from ..calibration._points_io import read_targets
     from ..compensation._points import read_points_campaign
     from ..mechanism._registry import load_mechanism
 
@@ -363,7 +363,8 @@ def _simulate_points_campaign(args: argparse.Namespace) -> int:
     import jax
 
     from .._files import write_text_atomic
-    from ..calibration._points import default_registration, default_targets, read_targets, write_targets
+    from ..calibration._points_io import read_targets, write_targets
+    from ..calibration._points_simulation import default_registration, default_targets
     from ..compensation._points import points_campaign_csv, simulate_points_campaign
     from ..compensation._yaml import load_table
     from ..mechanism._registry import load_mechanism

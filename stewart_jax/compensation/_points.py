@@ -23,14 +23,8 @@ import numpy as np
 
 from .._math import rotation_matrix
 from ..calibration._csv import csv_rows
-from ..calibration._points import (
-    REFERENCE_POSE,
-    PointData,
-    TrackerTargets,
-    read_points_csv,
-    start_values,
-    tracker_covariance,
-)
+from ..calibration._points import REFERENCE_POSE, PointData, TrackerTargets, start_values, tracker_covariance
+from ..calibration._points_io import read_points_csv
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._apply import offsets_to_poses, poses_to_offsets
