@@ -126,6 +126,15 @@ class SkippedEffect(NamedTuple):
         return {"effect": self.effect, "reason": self.reason}
 
 
+def _distinct(a: float, b: float) -> tuple[str, str]:
+    """``a`` and ``b`` to 3 significant digits, or to as many more (up to 6) as tell them apart."""
+    for digits in range(3, 7):
+        sa, sb = f"{a:.{digits}g}", f"{b:.{digits}g}"
+        if sa != sb:
+            break
+    return sa, sb
+
+
 @dataclasses.dataclass(frozen=True)
 class DiagnosisReport:
     """Result of :func:`~stewart_jax.discrepancy.diagnose`; ``to_dict()`` gives the JSON of
@@ -223,8 +232,9 @@ class DiagnosisReport:
                              f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
             else:  # significant on the training rows, but the held-out gap does not shrink
                 how = "widens" if p["heldout_rms"] > self.gap_before else "does not shrink"
+                before, after = _distinct(self.gap_before, p["heldout_rms"])
                 lines.append(f"not an explanation: {p['effect']} {how} the held-out gap "
-                             f"(RMS {self.gap_before:.3g} → {p['heldout_rms']:.3g} {unit})")
+                             f"(RMS {before} → {after} {unit})")
         for t in self.discovered:
             lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
         for name, params in self.absorbed_by.items():
