@@ -29,7 +29,6 @@ residual vector and one Jacobian) for the LM methods. The hybrid takes both.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Literal
 
@@ -63,7 +62,8 @@ class Method:
 
     - ``name``: the CLI/JSON name (``"vsa-smcs"``).
     - ``label``: the name in tables and figures (``"VSA-SMCS"``).
-    - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters.
+    - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters (a
+      ``"least_squares"`` or ``"hybrid"`` factory takes ``max_steps``, the LM step budget).
     - ``kind``: which budget it takes, for listings and the command line's checks (it does not
       change how the method runs: every solver's ``solve`` does): ``"least_squares"`` (residual
       vector from the nominal parameters, budget ``max_steps``), ``"box"`` (cost over Ω within
@@ -152,13 +152,13 @@ def method_label(name: str) -> str:
 def make_solver(name: str, max_steps: int | None = None, **options: Any) -> AbstractOptimiser:
     """The solver object of method ``name`` with its hyper-parameters set from ``options``
     (field names of the solver class; for ``"vsa-smcs+lm"`` the fields of :class:`VSASMCS`,
-    and ``max_steps`` for its LM phase). ``max_steps`` goes to the methods that take a step
-    budget and is ignored by the others. ``epsilon`` (the paper's ``ε``) is accepted as the
-    population methods' ``target``."""
+    and ``max_steps`` for its LM phase). ``max_steps`` goes to the methods whose ``kind`` takes
+    a step budget (``"least_squares"``, ``"hybrid"``) and is ignored by the others. ``epsilon``
+    (the paper's ``ε``) is accepted as the population methods' ``target``."""
     m = method(name)
     if "epsilon" in options:
         options["target"] = options.pop("epsilon")
-    if max_steps is not None and "max_steps" in inspect.signature(m.factory).parameters:
+    if max_steps is not None and m.kind != "box":  # the kind declares the step budget
         options["max_steps"] = max_steps
     solver = m.factory(**options)
     if not isinstance(solver, AbstractOptimiser):

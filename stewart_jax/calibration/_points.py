@@ -275,10 +275,10 @@ def write_points_csv(
     if data.directions is not None:
         extra_names += list(DIRECTION_COLUMNS)
         extra.append(np.asarray(data.directions, dtype=np.float64))
-    for name in ("temperature", "time"):
-        if getattr(data, name) is not None:
+    for name, column in (("temperature", data.temperature), ("time", data.time)):
+        if column is not None:
             extra_names.append(name)
-            extra.append(np.asarray(getattr(data, name), dtype=np.float64)[:, None])
+            extra.append(np.asarray(column, dtype=np.float64)[:, None])
     per_pose = np.concatenate(extra, axis=1) if extra else np.zeros((data.n_poses, 0))
     lines = [",".join(POINT_COLUMNS + tuple(extra_names))]
     for i, p in zip(data.reference_index, data.references, strict=True):
@@ -679,9 +679,8 @@ def default_targets(mechanism: AbstractMechanism) -> TrackerTargets:
     mean height, one ring 10 % inside and 20 mm higher) and four on the base (on a circle 10 %
     outside its joints, one 50 mm up)."""
     joints = np.asarray(mechanism.moving_joints(jnp.zeros(6))) - np.asarray(mechanism.v0)
-    base_j = np.asarray(mechanism.moving_joints(jnp.zeros(6)))  # fallback height
-    lower = getattr(mechanism, "base", None)
-    lower = np.asarray(lower) if lower is not None else base_j
+    fixed = mechanism.fixed_joints()
+    lower = np.asarray(mechanism.moving_joints(jnp.zeros(6)) if fixed is None else fixed)
     radius = float(np.mean(np.linalg.norm(joints[:, :2], axis=-1)))
     height = float(np.mean(joints[:, 2]))
     ang = np.radians([90.0, 210.0, 330.0])
