@@ -317,6 +317,13 @@ def minimise(
 
     Returns an :class:`OptimiseResult` (``history_*`` has one entry per scan step, frozen
     entries repeating the last value), and the final state too if ``return_state``.
+
+    Any real dtype is taken: the bounds, the start and the objective's value are cast to float64
+    at this boundary (the solvers work in float64; a float32 objective is computed in float32 and
+    its value widened). A coordinate with ``lower == upper`` is fixed (pycma's
+    ``fixed_variables``): the solver searches the others, ``result.params`` holds it at its
+    value, and with every coordinate fixed the one point is evaluated (status ``successful``).
+    Only ``lower > upper`` or a bound that is not finite is refused.
     """
     def flat(tree):
         return ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), tree))
@@ -334,19 +341,50 @@ def minimise(
     if int(max_evaluations) != max_evaluations or max_evaluations < 1:
         raise ValueError(f"max_evaluations must be a positive integer, got {max_evaluations}")
 
+    free = fixed_coordinates(lower_flat, upper_flat)
+
+    def full(x):
+        return x if free is None else lower_flat.at[free].set(x)
+
     def flat_fn(x):
-        return fn(unravel(x), args)
+        return jnp.asarray(fn(unravel(full(x)), args), jnp.float64)
 
-    check_scalar_objective(flat_fn, lower_flat)
-
-    result, state = _minimise_flat(flat_fn, solver, lower_flat, upper_flat, y0_flat, key, int(max_evaluations))
+    check_scalar_objective(lambda x: fn(unravel(full(x)), args),
+                           lower_flat if free is None else lower_flat[free])
+    if free is not None and free.size == 0:
+        result, state = _all_fixed(flat_fn, lower_flat), None
+    else:
+        lo, hi, start = lower_flat, upper_flat, y0_flat
+        if free is not None:
+            lo, hi = lower_flat[free], upper_flat[free]
+            start = None if y0_flat is None else y0_flat[free]
+        result, state = _minimise_flat(flat_fn, solver, lo, hi, start, key, int(max_evaluations))
+        result = result._replace(params=full(result.params))
     result = result._replace(params=unravel(result.params))
     return (result, state) if return_state else result
 
 
+def fixed_coordinates(lower: Array, upper: Array) -> np.ndarray | None:
+    """The indices of the free coordinates (``lower < upper``), or ``None`` where every
+    coordinate is free or the bounds are traced (then the solver samples the box as given)."""
+    if isinstance(lower, jax.core.Tracer) or isinstance(upper, jax.core.Tracer):
+        return None
+    is_free = np.asarray(lower) < np.asarray(upper)
+    return None if is_free.all() else np.flatnonzero(is_free)
+
+
+def _all_fixed(fn, x):
+    """The result where the box is one point: one evaluation, no search."""
+    f = nan_to_inf(fn)(x)
+    status = RESULTS.where(jnp.isfinite(f), RESULTS.successful, RESULTS.nonfinite)
+    one = jnp.asarray(1, jnp.int32)
+    return OptimiseResult(x, f, one, status, f[None], one[None])
+
+
 def check_box(lower: Array, upper: Array) -> None:
     """Raise, naming the first offending coordinate, unless every bound is finite and
-    ``lower < upper`` (skipped for traced bounds, which cannot be read before tracing)."""
+    ``lower <= upper`` (a coordinate with ``lower == upper`` is fixed; skipped for traced
+    bounds, which cannot be read before tracing)."""
     if isinstance(lower, jax.core.Tracer) or isinstance(upper, jax.core.Tracer):
         return
     lo, hi = np.asarray(lower), np.asarray(upper)
@@ -355,11 +393,12 @@ def check_box(lower: Array, upper: Array) -> None:
         if bad.size:
             raise ValueError(f"the box must be finite: {name}[{bad[0]}] = {v[bad[0]]} ({bad.size} coordinate(s) "
                              "not finite); a population method samples the box, so every bound must be a number")
-    bad = np.flatnonzero(~(lo < hi))
+    bad = np.flatnonzero(~(lo <= hi))
     if bad.size:
         i = bad[0]
-        raise ValueError(f"the box is empty or flat: lower[{i}] = {lo[i]} is not below upper[{i}] = {hi[i]} "
-                         f"({bad.size} coordinate(s)); every lower bound must be below its upper bound")
+        raise ValueError(f"the box is empty: lower[{i}] = {lo[i]} is above upper[{i}] = {hi[i]} "
+                         f"({bad.size} coordinate(s)); every lower bound must be at or below its upper bound "
+                         "(equal bounds fix a coordinate)")
 
 
 def check_scalar_objective(fn, x: Array) -> None:
