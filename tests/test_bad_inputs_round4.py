@@ -118,3 +118,24 @@ def test_a_geometry_file_in_metres_never_calibrates_ok(tmp_path, capsys):
     if rc == 0:
         result = json.loads(out.read_text())
         assert result["data_status"] != "ok", result["data_status"]
+
+
+# ---- inputs checked against what they describe ---------------------------------------------------
+
+@pytest.mark.parametrize("extra", [["--stroke-limits-mm=-9,9"], ["--name", "m2"], ["--replace-edited"]])
+def test_an_option_the_chosen_format_would_ignore_is_refused(tmp_path, capsys, extra):
+    assert cli_main(["export", "rubin_m2", "--format", "genhexkins", "--out", str(tmp_path / "g.hal"), *extra]) == 2
+    assert "--format linuxcnc only" in capsys.readouterr().err and not (tmp_path / "g.hal").exists()
+
+
+def test_controller_limits_that_contradict_the_geometry_are_refused():
+    from stewart_jax.mechanism._linuxcnc import to_linuxcnc
+    from stewart_jax.mechanism._ups import UPSMechanism
+
+    m2 = preset("rubin_m2")
+    with pytest.raises(ValueError, match="to zero or less"):  # a stroke longer than the strut
+        to_linuxcnc(m2, stroke_limits_mm=(-600.0, 10.0))
+    own = UPSMechanism(m2.base, m2.platform, m2.v0, m2.lengths0, stroke_limits=(-5.0, 5.0), travel=m2.travel)
+    with pytest.raises(ValueError, match="contradict"):  # user limits beside the geometry's own
+        to_linuxcnc(own, stroke_limits_mm=(-9.0, 9.0))
+    to_linuxcnc(own, stroke_limits_mm=(-5.0, 5.0))  # the same limits twice are no contradiction

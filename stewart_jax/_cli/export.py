@@ -14,6 +14,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.format == "linuxcnc":
         return _run_linuxcnc(args)
+    ignored = [flag for flag, given in (("--stroke-limits-mm", args.stroke_limits_mm is not None),
+                                        ("--name", args.name != "hexapod"),
+                                        ("--replace-edited", args.replace_edited)) if given]
+    if ignored:
+        raise ValueError(f"{', '.join(ignored)} apply to --format linuxcnc only; --format {args.format} would "
+                         "ignore them")
     check_outputs(args, out="--out")
     mechanism = load_mechanism(args.geometry)
     text = to_genhexkins(mechanism) if args.format == "genhexkins" else mechanism_json(mechanism)

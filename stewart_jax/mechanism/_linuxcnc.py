@@ -81,6 +81,11 @@ def to_linuxcnc(
 
     hal_setp = to_genhexkins(mechanism)
     assert isinstance(mechanism, UPSMechanism)
+    if mechanism.stroke_limits is not None and stroke_limits_mm is not None:
+        own = [tuple(map(float, lim)) for lim in np.atleast_2d(np.asarray(mechanism.stroke_limits, np.float64))]
+        if any(lim != tuple(map(float, stroke_limits_mm)) for lim in own):
+            raise ValueError(f"the geometry has its own stroke_limits {own[0]} mm, which the export uses; the "
+                             f"stroke limits given ({tuple(stroke_limits_mm)} mm) contradict them: drop one")
     if mechanism.stroke_limits is None:
         if stroke_limits_mm is None:
             raise ValueError(
@@ -91,6 +96,10 @@ def to_linuxcnc(
         lo, hi = (float(x) for x in stroke_limits_mm)
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < 0.0 < hi):
             raise ValueError(f"stroke limits must be finite with min < 0 < max (mm), got {stroke_limits_mm}")
+        shortest = float(np.min(np.asarray(mechanism.lengths0)))
+        if lo <= -shortest:
+            raise ValueError(f"stroke limit min {lo} mm would shorten a strut of {shortest:.4g} mm (lengths0) to "
+                             "zero or less: the limits contradict the geometry (µm typed for mm?)")
         mechanism = UPSMechanism(
             mechanism.base,
             mechanism.platform,
