@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "stewart_jax"
 
-CORE = {"_math", "_units", "_checks", "_files", "_linalg", "_runtime", "_cache"}
+CORE = {"_math", "_units", "_checks", "_files", "_linalg", "_special", "_runtime", "_cache"}
 """The lowest layer: modules directly in ``stewart_jax/``; they import only each other."""
 
 MAY_IMPORT: dict[str, set[str]] = {
@@ -26,10 +26,12 @@ MAY_IMPORT: dict[str, set[str]] = {
     "study": CORE | {"mechanism", "optimise", "calibration"},
     "cable_robot": CORE,
     "discrepancy": CORE | {"mechanism", "optimise", "calibration", "cable_robot"},
+    "compensation": CORE | {"mechanism", "calibration"},
     "plotting": CORE,
-    "<package>": CORE | {"mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot", "plotting"},
+    "<package>": CORE | {"mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot", "plotting",
+                         "compensation"},
     "_cli": CORE | {"<package>", "mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot",
-                    "plotting"},
+                    "plotting", "compensation"},
     "__main__": {"_cli"},
 }
 """``{layer: the layers it may import}``; ``<package>`` is ``stewart_jax/__init__.py``, which

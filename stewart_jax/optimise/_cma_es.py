@@ -236,7 +236,8 @@ class CMAES(AbstractPopulationSolver):
             if level.init_evaluations(n_dim) + level.step_evaluations(n_dim)[1] > max_evaluations:
                 break
             levels.append(level)
-        return RestartSchedule(base, tuple(levels), self.restarts == "bipop")
+        return RestartSchedule(base, tuple(levels), self.restarts == "bipop",
+                               lambda s, factor: dataclasses.replace(s, sigma0=s.sigma0 * factor))
 
     def init(self, fn, y0, lower, upper, key):
         n = lower.shape[-1]

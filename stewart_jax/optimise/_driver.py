@@ -37,7 +37,7 @@ give it its hyper-parameters as fields (validated in ``__check_init__`` with
 from __future__ import annotations
 
 import abc
-import dataclasses
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import equinox as eqx
@@ -418,15 +418,17 @@ class RestartSchedule(NamedTuple):
 
     - ``first``: the solver of the first run (the caller's start, ``y0`` or a sample).
     - ``levels``: the solvers of the later runs, ``levels[j]`` with the population ``λ₀·2^j``;
-      each run starts from a fresh sample, and each has a ``sigma0`` (its initial step size,
-      scaled per run for BIPOP's small runs).
+      each run starts from a fresh sample.
     - ``bipop``: ``False``: IPOP, run ``k`` after the first on level ``k`` (Auger & Hansen 2005);
       ``True``: BIPOP, those runs interleaved with small-population runs (Hansen 2009).
+    - ``small_step``: ``(solver, factor) -> solver``, a small run's solver: its level's with the
+      initial step size scaled by ``factor`` (``0.01^v``; 1 for a large run).
     """
 
     first: AbstractSolver
     levels: tuple[AbstractSolver, ...]
     bipop: bool
+    small_step: Callable[[AbstractSolver, Array], AbstractSolver]
 
 
 class RestartState(NamedTuple):
@@ -548,9 +550,7 @@ def _restarts(fn, plan: RestartSchedule, lower, upper, y0, key, max_evaluations:
         def run(c):
             def branch(i):
                 def go(states, hist):
-                    s = levels[i]
-                    s = dataclasses.replace(s, sigma0=s.sigma0 * factor)
-                    return one_run(s, k_run, allowance, states, i, hist)
+                    return one_run(plan.small_step(levels[i], factor), k_run, allowance, states, i, hist)
                 return go
 
             hist = (c["hist_f"], c["hist_n"], c["pos"], c["used"], c["best_f"])

@@ -1,9 +1,6 @@
-"""A study's checkpoint: each trial's result under its trial index, merged under a file lock.
-
-A run restarted with the same checkpoint computes exactly the trials it lacks; processes or
-hosts sharing one file each re-read it under the lock and add their own trials; a file of a run
-with other settings is refused, naming the settings that differ.
-"""
+"""The study's checkpoint file: every trial's result stored under its index, with the study's
+configuration hashed, read back with each record checked, and written atomically under a lock
+(see :func:`~stewart_jax.study.run_study`)."""
 
 from __future__ import annotations
 

@@ -55,7 +55,11 @@ from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ..mechanism._pss import actual_geometry, nominal_geometry
 from ..optimise._result import STATUS_NAMES, status_code
-from ._checkpoint import PER_TRIAL_KEYS as PER_TRIAL_KEYS, _load_checkpoint, _save_checkpoint as _save_checkpoint
+from ._checkpoint import (
+    PER_TRIAL_KEYS,
+    _load_checkpoint,
+    _save_checkpoint,
+)
 
 PAPER_TABLE2: dict[str, list[float]] = {
     "Before calibration": [532.07, 189.03, 174.38, 250.10, 374.02, 354.99],
