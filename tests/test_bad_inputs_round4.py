@@ -139,3 +139,23 @@ def test_controller_limits_that_contradict_the_geometry_are_refused():
     with pytest.raises(ValueError, match="contradict"):  # user limits beside the geometry's own
         to_linuxcnc(own, stroke_limits_mm=(-9.0, 9.0))
     to_linuxcnc(own, stroke_limits_mm=(-5.0, 5.0))  # the same limits twice are no contradiction
+
+
+def test_a_report_never_says_the_gap_closed_when_it_grew():
+    # the words against the report's own numbers: discovered terms "explaining" a record while
+    # the held-out RMS grows 10⁸× (a record in metres) are reported as not an explanation
+    import dataclasses
+    import types
+
+    from stewart_jax.discrepancy._report import DiagnosisReport
+
+    fields = {f.name: None for f in dataclasses.fields(DiagnosisReport)}
+    fake = DiagnosisReport(**{**fields, "fitted": types.SimpleNamespace(model=types.SimpleNamespace(report_unit="µm")),
+                              "detected": True, "named_effect": None, "explained": True, "gap_before": 1.0,
+                              "gap_after": 1e8, "noise_floor": 0.5, "detect_p_value": 1e-9,
+                              "discovered": [{"description": "a sine", "gap_after": 1e8}], "partial": [],
+                              "absorbed_by": {}, "notes": [], "indistinguishable_from": []})
+    text = "\n".join(fake.summary())
+    assert "not explained" in text and "close the gap" not in text
+    shrunk = dataclasses.replace(fake, gap_after=0.6)
+    assert "discovered terms close the gap" in "\n".join(shrunk.summary())
