@@ -36,6 +36,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import write_results  # noqa: E402
 
+from stewart_jax._files import write_text_atomic  # noqa: E402
+
 # (label, argv after `stewart-jax`, the SciPy peer's input CSV or None); in order: each command's
 # input files are written by an earlier one.
 COMMANDS = [
@@ -200,17 +202,38 @@ def markdown(rows: list[dict], baselines: dict, verdict_rows: list[dict], script
               "| --- | --- | --- | --- | --- |"]
     lines += [f"| {v['target']} | {v['ratio']:.2f}× | ≤ {v['goal']:g}× | ≤ {v['bar']:g}× | {v['verdict']} |"
               for v in verdict_rows]
-    lines += ["", "## The SciPy script", "", "```python", script.rstrip(), "```"]
+    lines += ["", "Where the time goes and where we still lose: "
+              "[the speed page](../../docs/benchmarks/speed.md#command-line-latency).",
+              "", "## The SciPy script", "", "```python", script.rstrip(), "```"]
     return "\n".join(lines)
+
+
+def rewrite_markdown(name: str) -> None:
+    """``results/NAME.md`` again from ``results/NAME.json`` (the run's own machine line)."""
+    from _common import RESULTS
+
+    with open(os.path.join(RESULTS, f"{name}.json"), encoding="utf-8") as f:
+        res = json.load(f)
+    info = res["machine"]
+    header = (f"Command: `{info['command']}`  \nMachine: {info['platform']}, {info['cpu_count']} CPUs "
+              f"({info['processor']}), backend {info['backend']}, load average {info['load_average_1min']}; "
+              f"python {info['python']}, jax {info['jax']}, numpy {info['numpy']}; {info['date_utc']} UTC\n\n")
+    text = markdown(res["rows"], res["baselines"], res["targets"], res["scipy_script"])
+    write_text_atomic(os.path.join(RESULTS, f"{name}.md"), header + text.rstrip() + "\n")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="--help, --version and export only (a smoke test)")
     ap.add_argument("--warm-repeats", type=int, default=2)
+    ap.add_argument("--rewrite-markdown", action="store_true",
+                    help="write results/NAME.md again from results/NAME.json, running nothing")
     ap.add_argument("--out", default=None,
                     help="result name under benchmarks/results, or a path without extension (default latency)")
     args = ap.parse_args()
+    if args.rewrite_markdown:
+        rewrite_markdown(args.out or "latency")
+        return
     commands = [c for c in COMMANDS if c[0] in QUICK] if args.quick else COMMANDS
     with tempfile.TemporaryDirectory(prefix="stewart-jax-latency-") as work:
         cache_root = os.path.join(work, "caches")
