@@ -150,6 +150,14 @@ class PointsModel(AbstractDiscrepancyModel):
         return points_model_name(self.inner.name)
 
     @property
+    def reading_unit(self) -> str:
+        return self.mechanism.reading_unit
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        return self.mechanism.param_names
+
+    @property
     def base_initial(self) -> Float[Array, " p"]:
         return self.inner.base_initial
 

@@ -126,6 +126,15 @@ class SkippedEffect(NamedTuple):
         return {"effect": self.effect, "reason": self.reason}
 
 
+def _distinct(a: float, b: float) -> tuple[str, str]:
+    """``a`` and ``b`` to 3 significant digits, or to as many more (up to 6) as tell them apart."""
+    for digits in range(3, 7):
+        sa, sb = f"{a:.{digits}g}", f"{b:.{digits}g}"
+        if sa != sb:
+            break
+    return sa, sb
+
+
 @dataclasses.dataclass(frozen=True)
 class DiagnosisReport:
     """Result of :func:`~stewart_jax.discrepancy.diagnose`; ``to_dict()`` gives the JSON of
@@ -206,7 +215,12 @@ class DiagnosisReport:
         unit = self.fitted.model.report_unit
         gap = f"held-out RMS {self.gap_before:.3g} → {self.gap_after:.3g} {unit}, noise floor {self.noise_floor:.3g}"
         lines = []
-        if not self.detected:
+        claimed = self.named_effect is not None or (self.explained and self.discovered)
+        if self.detected and claimed and not self.gap_after < self.gap_before:
+            lines.append(f"not explained: the {'named effect' if self.named_effect else 'discovered terms'} fit the "
+                         f"training rows but the held-out gap did not shrink ({gap}); check the record's units "
+                         "(mm and degrees) and that the model applies")
+        elif not self.detected:
             lines.append(f"no discrepancy detected (held-out p = {self.detect_p_value:.3g}); {gap}")
         elif self.named_effect is not None:
             indist = (f" (indistinguishable from {', '.join(self.indistinguishable_from)})"
@@ -223,8 +237,9 @@ class DiagnosisReport:
                              f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
             else:  # significant on the training rows, but the held-out gap does not shrink
                 how = "widens" if p["heldout_rms"] > self.gap_before else "does not shrink"
+                before, after = _distinct(self.gap_before, p["heldout_rms"])
                 lines.append(f"not an explanation: {p['effect']} {how} the held-out gap "
-                             f"(RMS {self.gap_before:.3g} → {p['heldout_rms']:.3g} {unit})")
+                             f"(RMS {before} → {after} {unit})")
         for t in self.discovered:
             lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
         for name, params in self.absorbed_by.items():
