@@ -3,6 +3,7 @@ before any work, and strict JSON."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -120,3 +121,42 @@ def finite_or_none(obj):
 def json_text(obj, indent: int | None = 2) -> str:
     """Strict JSON text of ``obj`` (non-finite numbers as ``null``), newline-terminated."""
     return json.dumps(finite_or_none(obj), indent=indent, allow_nan=False) + "\n"
+
+
+_STAMP = "stewart_jax generated file; sha256 of the lines below:"
+
+
+def stamp_generated(text: str, comment: str = "#") -> str:
+    """``text`` with a first comment line recording the SHA-256 of the rest, so that a later
+    write can tell an unedited generated file (safe to replace) from an edited or hand-made one
+    (:func:`generated_state`)."""
+    digest = hashlib.sha256(text.encode()).hexdigest()
+    return f"{comment} {_STAMP} {digest}\n{text}"
+
+
+def generated_state(path: str | os.PathLike[str]) -> str:
+    """``"absent"``, ``"unedited"`` (a :func:`stamp_generated` file whose lines match their
+    checksum), ``"edited"`` (stamped, but changed since) or ``"foreign"`` (no stamp: made by
+    hand or by another program)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            first, rest = fh.readline(), fh.read()
+    except FileNotFoundError:
+        return "absent"
+    head, sep, digest = first.rstrip("\n").partition(_STAMP)
+    if not sep:
+        return "foreign"
+    return "unedited" if hashlib.sha256(rest.encode()).hexdigest() == digest.strip() else "edited"
+
+
+def keep_backup(path: str | os.PathLike[str]) -> str:
+    """Copy the file ``path`` to the first free ``PATH.bak``, ``PATH.bak1``, … (never replacing
+    an earlier backup) and return the backup's path."""
+    import shutil
+
+    candidate, n = f"{path}.bak", 0
+    while os.path.exists(candidate):
+        n += 1
+        candidate = f"{path}.bak{n}"
+    shutil.copy2(path, candidate)
+    return candidate

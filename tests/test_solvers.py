@@ -497,7 +497,7 @@ def test_a_new_optimiser_is_one_class_and_its_registration():
 def test_the_box_and_the_objective_are_checked_before_tracing():
     fn = lambda x, _: jnp.sum(x**2)
     key = jax.random.key(0)
-    with pytest.raises(ValueError, match=r"lower\[1\] = 2.0 is not below upper\[1\] = 1.0"):
+    with pytest.raises(ValueError, match=r"lower\[1\] = 2.0 is above upper\[1\] = 1.0"):
         minimise(fn, CuckooSearch(), jnp.array([0.0, 2.0]), jnp.array([1.0, 1.0]), key, max_evaluations=100)
     with pytest.raises(ValueError, match=r"finite: upper\[0\] = inf"):
         minimise(fn, CuckooSearch(), jnp.zeros(2), jnp.array([jnp.inf, 1.0]), key, max_evaluations=100)

@@ -29,9 +29,12 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
     lines: list[str] = []
     again = study.run_study(("lm-batched",), n_trials=4, chunk_size=2, checkpoint=ck, keep_trials=True,
                             log=lines.append)
-    assert not [line for line in lines if "trials" in line], lines
+    assert not [line for line in lines if ": trials" in line], lines
     assert again["rows"] == first["rows"]
-    with pytest.raises(ValueError, match="other settings"):
+    # a resumed run says what it kept
+    assert f"resuming from checkpoint {ck}: kept 4/4 trials of lm-batched" in "\n".join(lines), lines
+    # a changed option is refused, naming it with both values
+    with pytest.raises(ValueError, match="sigma_um: checkpoint 0.1, this run 0.5"):
         study.run_study(("lm-batched",), n_trials=4, chunk_size=2, checkpoint=ck, sigma_um=0.5)
 
     # trials are stored by index: another chunk size resumes exactly (nothing recomputed, nothing
@@ -40,10 +43,10 @@ def test_checkpoint_resume_skips_finished_chunks(tmp_path):
     lines.clear()
     rechunked = study.run_study(("lm-batched",), n_trials=4, chunk_size=3, checkpoint=ck, keep_trials=True,
                                 log=lines.append)
-    assert not [line for line in lines if "trials" in line], lines
+    assert not [line for line in lines if ": trials" in line], lines
     assert rechunked["rows"] == first["rows"]
     more = study.run_study(("lm-batched",), n_trials=6, chunk_size=3, checkpoint=ck, keep_trials=True, log=lines.append)
-    assert [line for line in lines if "trials" in line] == [lines[-1]] and "for 2 trials" in lines[-1]
+    assert [line for line in lines if ": trials" in line] == [lines[-1]] and "for 2 trials" in lines[-1]
     got = more["rows"]["LM (batched)"]["validation"]["per_trial_max"]
     assert len(got) == 6 and got[:4] == lm["validation"]["per_trial_max"]
 

@@ -11,7 +11,8 @@ _INPUTS = {"file": "data file", "geometry": "--geometry", "true": "--true", "poi
 def check_outputs(args: argparse.Namespace, **outputs: str) -> None:
     """Every output path given (``attribute=description``) can be written, no two of them are
     one file and none is an input file: checked before any work, so that a typo in a path costs
-    nothing and no output destroys another (a checkpoint replaced by the result)."""
+    nothing and no output destroys another (a checkpoint replaced by the result). An existing
+    file an output replaces is kept as ``PATH.bak`` first (:func:`_keep_replaced`)."""
     from .._files import check_distinct_paths, check_writable
 
     for attr, what in outputs.items():
@@ -21,6 +22,23 @@ def check_outputs(args: argparse.Namespace, **outputs: str) -> None:
     inputs = {what: getattr(args, attr, None) for attr, what in _INPUTS.items()}
     check_distinct_paths({what: getattr(args, attr, None) for attr, what in outputs.items()},
                          {k: v for k, v in inputs.items() if isinstance(v, str)})
+    _keep_replaced(args, outputs)
+
+
+def _keep_replaced(args: argparse.Namespace, outputs: dict[str, str]) -> None:
+    """An existing file that an output will replace is copied to ``PATH.bak`` (``.bak1``, … where
+    that exists) first, and the command says so: a generated file never silently replaces one
+    that a person made or edited. A study's checkpoint is its own input (resumed, not replaced)."""
+    import os
+    import sys
+
+    from .._files import keep_backup
+
+    for attr, what in outputs.items():
+        path = getattr(args, attr, None)
+        if attr == "checkpoint" or not path or not os.path.isfile(path):
+            continue
+        print(f"{what} {path} exists: kept it as {keep_backup(path)} before replacing it", file=sys.stderr)
 
 
 def write_json(path: str, obj) -> None:

@@ -45,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
     if args.max_evaluations is not None and METHOD_REGISTRY[args.method].kind == "least_squares":
         raise ValueError("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
 
+    import warnings
+
     import jax
 
     from ..calibration._assessment import assess_calibration, implied_pose_errors
@@ -54,7 +56,12 @@ def run(args: argparse.Namespace) -> int:
     from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
-    nominal = load_nominal(args)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        nominal = load_nominal(args)
+    file_warnings = [str(w.message) for w in seen if issubclass(w.category, UserWarning)]
+    for w in file_warnings:
+        print(f"WARNING: {w}", file=sys.stderr)
     data = read_csv(args.file, reading_unit=nominal.reading_unit)
     _check_reachable(nominal, data, args)
     problem = calibration_problem(data, nominal, args.half_width, args.half_width_mrad)
@@ -87,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     }
     if any(is_angle(u) for u in nominal.param_units):
         out["half_width_mrad"] = args.half_width if args.half_width_mrad is None else args.half_width_mrad
+    if args.json:
+        write_json(args.json, out)  # the fit first: a later step that fails never loses it
     calibrated = nominal.with_params(params)
     assessment = None
     if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
@@ -103,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
         out["data_status"] = "nonfinite"
         out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
                            "check the units (mm, degrees) of the CSV and of the geometry"]
+    _plausibility(out, nominal, params, problem, file_warnings)
     print(
         f"{args.method}: S = {out['cost']:.6g} {cost_unit} (rms reading residual {out[rms_key]:.4g} {reading_unit}) "
         f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}"
@@ -163,6 +173,30 @@ def _check_reachable(nominal, data, args) -> None:
             f"{args.file}: rows {(bad + 1).tolist()[:10]}{' …' if bad.size > 10 else ''} (1-based, after the header) "
             f"are poses the nominal geometry {args.geometry!r} cannot reach — are the lengths in mm and the angles "
             "in degrees, and is this the right geometry?")
+
+
+PLAUSIBLE_BOX_FACTOR = 10.0
+"""A calibrated parameter further from nominal than this many half-widths of the stated box is
+implausible (a unit slip, the wrong geometry): the data status is never ``ok`` then."""
+
+
+def _plausibility(out: dict, nominal, params, problem, file_warnings: list[str]) -> None:
+    """The geometry file's unit-slip warnings and parameters far outside the stated box turn the
+    data status from ``ok`` to ``implausible``, with a warning naming the parameter."""
+    half = 0.5 * (np.asarray(problem.upper) - np.asarray(problem.lower))
+    moved = np.abs(params - np.asarray(nominal.params)) / np.where(half > 0, half, np.inf)
+    found = [f"the geometry file looks wrong, so the fit is not trusted: {w}" for w in file_warnings[:1]]
+    if np.any(moved > PLAUSIBLE_BOX_FACTOR):
+        i = int(np.argmax(moved))
+        found.append(f"parameter {nominal.param_names[i]} moved {abs(params[i] - float(nominal.params[i])):.4g} "
+                     f"{nominal.param_units[i]} from nominal, {moved[i]:.3g}× the half-width of the stated box "
+                     f"(±{half[i]:.4g} {nominal.param_units[i]}); {int(np.sum(moved > PLAUSIBLE_BOX_FACTOR))} "
+                     f"parameter(s) past {PLAUSIBLE_BOX_FACTOR:g}×: a unit slip (a file in metres or radians) or "
+                     "the wrong geometry, not a calibration")
+    if found:
+        out["warnings"] = list(out.get("warnings", [])) + found
+        if out.get("data_status") == "ok":
+            out["data_status"] = "implausible"
 
 
 def _assessment_keys(a) -> dict:

@@ -30,11 +30,21 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     nominal, actual = nominal_and_true(args)
-    result = run_study(
-        methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
-        args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
-        n_devices=args.devices, first_trial=args.first_trial, nominal=nominal, actual=actual,
-    )
+    try:
+        result = run_study(
+            methods, args.trials, args.seed, args.plan, args.sigma_um, args.sigma_arcsec, args.tracker,
+            args.half_width, options, chunk_size=args.chunk, checkpoint=args.checkpoint,
+            n_devices=args.devices, first_trial=args.first_trial, nominal=nominal, actual=actual,
+        )
+    except KeyboardInterrupt:
+        if args.checkpoint:
+            print(f"\ninterrupted: every finished chunk is in {args.checkpoint}; rerun the same command to "
+                  "resume from it", file=sys.stderr)
+        else:
+            print("\ninterrupted: the finished trials were not saved. To keep them across an interruption, "
+                  "run with --checkpoint PATH --chunk N (each finished chunk of N trials is saved to PATH; "
+                  "rerunning the same command resumes from it)", file=sys.stderr)
+        return 130
     print("\nMax control error at the calibration poses — median [90th percentile] over trials:\n")
     print(format_study_table(result, "calibration"))
     print("\nMax control error at 42 validation poses — median [90th percentile] over trials:\n")

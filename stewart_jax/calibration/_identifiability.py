@@ -102,12 +102,14 @@ def identifiability_report(
         "O4": float(smin**2 / s[0]),
     }
     C = np.asarray(stroke_noise_covariance(geometry, poses, pose_noise_covariance(sigma_um, sigma_arcsec)))
+    # NOTE: the readings' covariance is block diagonal (one 6 × 6 block per pose), so
+    # Jᵀ C J = Σ_j J_jᵀ C_j J_j is formed block by block: memory n × n plus the Jacobian, linear
+    # in the poses (the dense 6m × 6m matrix is 27 GiB at 10⁴ poses).
     m = C.shape[0]
-    C_full = np.zeros((6 * m, 6 * m))
-    for j in range(m):
-        C_full[6 * j : 6 * j + 6, 6 * j : 6 * j + 6] = C[j]
+    Jb = J.reshape(m, 6, n)
+    JtCJ = np.einsum("mkn,mkl,mlp->np", Jb, C, Jb, optimize=True)
     JtJ_pinv = np.linalg.pinv(J.T @ J, rcond=rtol**2, hermitian=True)
-    cov = JtJ_pinv @ J.T @ C_full @ J @ JtJ_pinv
+    cov = JtJ_pinv @ JtCJ @ JtJ_pinv
     cov = 0.5 * (cov + cov.T)
     return IdentifiabilityReport(
         singular_values=s,

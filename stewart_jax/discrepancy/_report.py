@@ -215,7 +215,12 @@ class DiagnosisReport:
         unit = self.fitted.model.report_unit
         gap = f"held-out RMS {self.gap_before:.3g} → {self.gap_after:.3g} {unit}, noise floor {self.noise_floor:.3g}"
         lines = []
-        if not self.detected:
+        claimed = self.named_effect is not None or (self.explained and self.discovered)
+        if self.detected and claimed and not self.gap_after < self.gap_before:
+            lines.append(f"not explained: the {'named effect' if self.named_effect else 'discovered terms'} fit the "
+                         f"training rows but the held-out gap did not shrink ({gap}); check the record's units "
+                         "(mm and degrees) and that the model applies")
+        elif not self.detected:
             lines.append(f"no discrepancy detected (held-out p = {self.detect_p_value:.3g}); {gap}")
         elif self.named_effect is not None:
             indist = (f" (indistinguishable from {', '.join(self.indistinguishable_from)})"

@@ -39,12 +39,15 @@ _MAX_ANGLE_RAD = 0.5
 
 
 class LinuxCNCConfig(NamedTuple):
-    """The two files of a LinuxCNC ``genhexkins`` machine configuration.
+    """The files of a LinuxCNC ``genhexkins`` machine configuration.
 
     - ``ini``: the INI file's text (``[KINS]``, ``[TRAJ]``, ``[JOINT_0..5]``, ``[AXIS_X..C]``, …).
     - ``hal``: the HAL file's text (``loadrt``, the 36 ``setp genhexkins.*`` joint coordinates,
-      the offsets held at 0, and a simulated joint loop to replace with the machine's drives).
+      the offsets held at 0), ending by sourcing the user's HAL file ``NAME_user.hal``.
     - ``tool_table``: the tool table's text (no tools: one comment line).
+    - ``user_hal``: the user's HAL file as first written (a simulated joint loop to replace with
+      the machine's drives); the export writes it only where it is missing, so a re-export keeps
+      the user's wiring.
     - ``home``: ``Float[ndarray, "6"]``, ``[TRAJ]HOME`` (mm, degrees): ``v0`` and zero angles.
     - ``joint_home_mm``: ``Float[ndarray, "6"]``, the strut lengths at ``home``.
     - ``joint_limits_mm``: ``Float[ndarray, "6 2"]``, ``lengths0`` + the stroke limits.
@@ -54,6 +57,7 @@ class LinuxCNCConfig(NamedTuple):
     ini: str
     hal: str
     tool_table: str
+    user_hal: str
     home: np.ndarray
     joint_home_mm: np.ndarray
     joint_limits_mm: np.ndarray
@@ -77,6 +81,11 @@ def to_linuxcnc(
 
     hal_setp = to_genhexkins(mechanism)
     assert isinstance(mechanism, UPSMechanism)
+    if mechanism.stroke_limits is not None and stroke_limits_mm is not None:
+        own = [tuple(map(float, lim)) for lim in np.atleast_2d(np.asarray(mechanism.stroke_limits, np.float64))]
+        if any(lim != tuple(map(float, stroke_limits_mm)) for lim in own):
+            raise ValueError(f"the geometry has its own stroke_limits {own[0]} mm, which the export uses; the "
+                             f"stroke limits given ({tuple(stroke_limits_mm)} mm) contradict them: drop one")
     if mechanism.stroke_limits is None:
         if stroke_limits_mm is None:
             raise ValueError(
@@ -87,6 +96,10 @@ def to_linuxcnc(
         lo, hi = (float(x) for x in stroke_limits_mm)
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < 0.0 < hi):
             raise ValueError(f"stroke limits must be finite with min < 0 < max (mm), got {stroke_limits_mm}")
+        shortest = float(np.min(np.asarray(mechanism.lengths0)))
+        if lo <= -shortest:
+            raise ValueError(f"stroke limit min {lo} mm would shorten a strut of {shortest:.4g} mm (lengths0) to "
+                             "zero or less: the limits contradict the geometry (µm typed for mm?)")
         mechanism = UPSMechanism(
             mechanism.base,
             mechanism.platform,
@@ -123,8 +136,9 @@ def to_linuxcnc(
     axis_limits[3:] = np.degrees(np.stack([-minus[3:], plus[3:]], axis=1))
     return LinuxCNCConfig(
         ini=_ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_change),
-        hal=_hal(hal_setp),
+        hal=_hal(hal_setp, name),
         tool_table=f"; {name}: no tools (a tool length offset would move the rotation centre off the pivot)\n",
+        user_hal=_user_hal(name),
         home=home,
         joint_home_mm=joint_home,
         joint_limits_mm=joint_limits,
@@ -228,7 +242,7 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_ch
     return "\n".join(lines)
 
 
-def _hal(setp: str) -> str:
+def _hal(setp: str, name: str) -> str:
     lines = [
         "# HAL file of a 6-UPS strut hexapod for genhexkins, written by stewart_jax (mm).",
         "loadrt [KINS]KINEMATICS",
@@ -246,6 +260,18 @@ def _hal(setp: str) -> str:
         "setp genhexkins.spindle-offset 0",
         "setp genhexkins.screw-lead 0",
         "",
+        "# The machine's own wiring (drives, feedback, E-stop, tool changer) lives in the user's HAL",
+        f"# file, which the export writes once and never replaces: edit {name}_user.hal, not this file.",
+        f"source {name}_user.hal",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _user_hal(name: str) -> str:
+    lines = [
+        f"# The user's HAL file of {name}, sourced by {name}.hal. stewart_jax writes it once, when it is",
+        "# missing, and never replaces it: a re-export after a recalibration keeps these lines.",
         "# A simulated joint loop (commanded = measured strut length). Replace these six nets with the",
         "# machine's drives: each joint's feedback is lengths0 + that strut's reading, in mm.",
     ]

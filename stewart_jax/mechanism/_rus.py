@@ -38,6 +38,7 @@ structure-of-arrays columns (poses by population members), the discrepancy model
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -279,6 +280,35 @@ class RUSMechanism(AbstractMechanism):
                 d.get("crank_zero_rad"), crank_limits=None if limits is None else tuple(np.deg2rad(limits)),
                 travel=travel, param_set=str(d.get("param_set", "54")))
         return m
+
+    def file_warnings(self) -> None:
+        """Unit slips of a 6-RUS file, in both directions: a mechanism of a few mm (metres in a
+        file of mm) or of a hundred metres (µm), joints smaller than the travel, crank zeros past
+        ±π or azimuths spread over more than 4π (degrees in a radian field), and crank limits
+        narrower than 6° (radians in a degree field)."""
+        joints = np.concatenate([np.asarray(self.base), np.asarray(self.platform) + np.asarray(self.v0)])
+        size = float(np.max(np.linalg.norm(joints, axis=-1)))
+        reach = float(np.max(np.asarray(self.travel)[:3]))
+        slips = []
+        if size < 20.0 or size < reach:
+            slips.append(f"the joints lie within {size:.3g} mm of the origin against a travel of ±{reach:.3g} mm "
+                         "(lengths are mm: a file in metres needs every length × 1000)")
+        elif size > 1e5:
+            slips.append(f"joints {size / 1e3:.3g} m from the origin (lengths are mm: a file in µm needs ÷ 1000)")
+        zero = np.asarray(self.crank_zero)
+        if np.any(np.abs(zero) > np.pi):
+            slips.append(f"crank_zero_rad {np.round(zero, 3).tolist()} has values past ±π (degrees typed in a "
+                         "radian field?)")
+        az = np.asarray(self.azimuth)
+        if float(np.ptp(az)) > 4 * np.pi:
+            slips.append(f"crank azimuths spread over {np.ptp(az):.4g} rad (degrees typed in "
+                         "crank_azimuths_rad? use crank_azimuths_deg)")
+        if self.crank_limits is not None and self.crank_limits[1] - self.crank_limits[0] < np.deg2rad(6.0):
+            lo, hi = np.rad2deg(self.crank_limits)
+            slips.append(f"crank_limits_deg [{lo:.3g}, {hi:.3g}]° (radians typed in a degree field? "
+                         f"{lo:.3g} rad = {np.rad2deg(lo):.4g}°)")
+        for slip in slips:
+            warnings.warn(f"6-RUS geometry: {slip}", UserWarning, stacklevel=3)
 
 
 def _limits(x: Any) -> tuple[float, float]:

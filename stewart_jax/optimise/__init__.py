@@ -12,7 +12,7 @@ baselines ``_cma_es`` (Hansen 2016), ``_differential_evolution`` (Storn & Price 
 (Kennedy & Eberhart 1995; Shi & Eberhart 1998), ``_levenberg_marquardt``
 (optimistix baseline), ``_jaxopt_lm`` (jaxopt cross-check), ``_batched_lm`` (the batched fast path: Nielsen's damping,
 Cholesky per separable block, a refilled working set), ``_hybrid`` (VSA-SMCS then LM);
-``_driver`` runs every iterative one in one ``lax.scan``.
+``_driver`` runs every iterative one in one ``lax.scan`` (``_box``: the box contract it checks first).
 
 A new solver (a module of this package): subclass :class:`AbstractPopulationSolver` (or
 :class:`AbstractSolver`) with its hyper-parameters as fields checked in ``__check_init__``;

@@ -48,19 +48,10 @@ from jax import lax
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from ._box import all_fixed, check_box, check_scalar_objective, fixed_coordinates, nan_to_inf as nan_to_inf
 from ._objective import AbstractOptimiser, Objective
 from ._random import draw as draw
 from ._result import RESULTS, OptimiseResult
-
-
-def nan_to_inf(fn):
-    """``fn`` with NaN values replaced by +inf (and the value cast to a scalar array)."""
-
-    def wrapped(x):
-        f = jnp.reshape(jnp.asarray(fn(x)), ())
-        return jnp.where(jnp.isnan(f), jnp.inf, f)
-
-    return wrapped
 
 
 def evaluate(fn, xs: Float[Array, "n d"]) -> Float[Array, " n"]:
@@ -317,6 +308,13 @@ def minimise(
 
     Returns an :class:`OptimiseResult` (``history_*`` has one entry per scan step, frozen
     entries repeating the last value), and the final state too if ``return_state``.
+
+    Any real dtype is taken: the bounds, the start and the objective's value are cast to float64
+    at this boundary (the solvers work in float64; a float32 objective is computed in float32 and
+    its value widened). A coordinate with ``lower == upper`` is fixed (pycma's
+    ``fixed_variables``): the solver searches the others, ``result.params`` holds it at its
+    value, and with every coordinate fixed the one point is evaluated (status ``successful``).
+    Only ``lower > upper`` or a bound that is not finite is refused.
     """
     def flat(tree):
         return ravel_pytree(jax.tree.map(lambda a: jnp.asarray(a, jnp.float64), tree))
@@ -334,44 +332,27 @@ def minimise(
     if int(max_evaluations) != max_evaluations or max_evaluations < 1:
         raise ValueError(f"max_evaluations must be a positive integer, got {max_evaluations}")
 
+    free = fixed_coordinates(lower_flat, upper_flat)
+
+    def full(x):
+        return x if free is None else lower_flat.at[free].set(x)
+
     def flat_fn(x):
-        return fn(unravel(x), args)
+        return jnp.asarray(fn(unravel(full(x)), args), jnp.float64)
 
-    check_scalar_objective(flat_fn, lower_flat)
-
-    result, state = _minimise_flat(flat_fn, solver, lower_flat, upper_flat, y0_flat, key, int(max_evaluations))
+    check_scalar_objective(lambda x: fn(unravel(full(x)), args),
+                           lower_flat if free is None else lower_flat[free])
+    if free is not None and free.size == 0:
+        result, state = all_fixed(flat_fn, lower_flat), None
+    else:
+        lo, hi, start = lower_flat, upper_flat, y0_flat
+        if free is not None:
+            lo, hi = lower_flat[free], upper_flat[free]
+            start = None if y0_flat is None else y0_flat[free]
+        result, state = _minimise_flat(flat_fn, solver, lo, hi, start, key, int(max_evaluations))
+        result = result._replace(params=full(result.params))
     result = result._replace(params=unravel(result.params))
     return (result, state) if return_state else result
-
-
-def check_box(lower: Array, upper: Array) -> None:
-    """Raise, naming the first offending coordinate, unless every bound is finite and
-    ``lower < upper`` (skipped for traced bounds, which cannot be read before tracing)."""
-    if isinstance(lower, jax.core.Tracer) or isinstance(upper, jax.core.Tracer):
-        return
-    lo, hi = np.asarray(lower), np.asarray(upper)
-    for name, v in (("lower", lo), ("upper", hi)):
-        bad = np.flatnonzero(~np.isfinite(v))
-        if bad.size:
-            raise ValueError(f"the box must be finite: {name}[{bad[0]}] = {v[bad[0]]} ({bad.size} coordinate(s) "
-                             "not finite); a population method samples the box, so every bound must be a number")
-    bad = np.flatnonzero(~(lo < hi))
-    if bad.size:
-        i = bad[0]
-        raise ValueError(f"the box is empty or flat: lower[{i}] = {lo[i]} is not below upper[{i}] = {hi[i]} "
-                         f"({bad.size} coordinate(s)); every lower bound must be below its upper bound")
-
-
-def check_scalar_objective(fn, x: Array) -> None:
-    """Raise unless ``fn(x)`` returns one real number (checked on shapes only, before tracing)."""
-    leaves = jax.tree.leaves(jax.eval_shape(fn, x))
-    shapes = [leaf.shape for leaf in leaves]
-    if len(shapes) != 1 or shapes[0] not in ((), (1,)):
-        raise ValueError(f"the objective must return one number per point (a scalar), got shape(s) {shapes}; "
-                         "for a residual vector use least_squares, or return its sum of squares")
-    dtype = leaves[0].dtype
-    if not (jnp.issubdtype(dtype, jnp.floating) or jnp.issubdtype(dtype, jnp.integer)):
-        raise ValueError(f"the objective must return a real number, got dtype {dtype}")
 
 
 class RestartSchedule(NamedTuple):

@@ -42,9 +42,8 @@ def _read_checkpoint(path: str, config: dict[str, Any]) -> dict[str, Any]:
             f"'version': {_CHECKPOINT_VERSION} and 'trials'); delete it or use another path"
         )
     if ck.get("config_hash") != _config_hash(config):
-        raise ValueError(
-            f"checkpoint {path} was written by a run with other settings; delete it or use another path"
-        )
+        raise ValueError(f"checkpoint {path} was written by a run with other settings ({_differing(ck, config)}); "
+                         "rerun with the checkpoint's settings, or delete it or use another path")
     seconds = ck.get("seconds", {})
     if not isinstance(seconds, dict) or not all(
         isinstance(v, list) and all(_is_number(x) for x in v) for v in seconds.values()
@@ -60,6 +59,17 @@ def _read_checkpoint(path: str, config: dict[str, Any]) -> dict[str, Any]:
             _check_record(path, method, index, record, history)
             history = len(record["history_cost"])
     return {"trials": ck["trials"], "seconds": seconds}
+
+
+def _differing(ck: dict[str, Any], config: dict[str, Any]) -> str:
+    """The settings in which the checkpoint's run and this one differ, named."""
+    theirs = ck.get("config")
+    if not isinstance(theirs, dict):
+        return "the checkpoint does not record them"
+    keys = sorted(k for k in set(theirs) | set(config) if k not in _NOT_HASHED and theirs.get(k) != config.get(k))
+    short = {k: (theirs.get(k), config.get(k)) for k in keys}
+    return "; ".join(f"{k}: checkpoint {v[0]!r}, this run {v[1]!r}" if k not in ("nominal", "actual")
+                     else f"{k}: another geometry" for k, v in short.items()) or "the checkpoint's hash differs"
 
 
 def _is_number(x: Any) -> bool:

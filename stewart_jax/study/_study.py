@@ -97,6 +97,9 @@ def trial_keys(seed: int, n_trials: int, first: int = 0) -> jax.Array:
     ``i`` only."""
     if first < 0:
         raise ValueError(f"first trial must be >= 0, got {first}")
+    if first + n_trials > 2**32:
+        raise ValueError(f"trial indices reach {first + n_trials - 1}, past 2^32 - 1: a trial's key folds its index "
+                         "in as 32 bits, so trial i and i + 2^32 would be the same trial; use another seed instead")
     return jax.vmap(lambda i: jax.random.fold_in(jax.random.key(seed), i))(jnp.arange(first, first + n_trials))
 
 
@@ -335,6 +338,11 @@ def run_study(
     chunk = chunk_size or n_trials
     keys = trial_keys(seed, n_trials, first_trial)
     state = _load_checkpoint(checkpoint, config)
+    wanted = {str(i) for i in range(first_trial, first_trial + n_trials)}
+    kept = {m: len(wanted & set(t)) for m, t in state["trials"].items() if m != BEFORE}
+    if checkpoint and any(kept.values()):
+        log(f"resuming from checkpoint {checkpoint}: kept " + ", ".join(
+            f"{n}/{n_trials} trials of {m}" for m, n in kept.items() if n) + "; computing the rest")
     unsaved: dict[str, list[float]] = {}
     indices = [str(first_trial + i) for i in range(n_trials)]
     rows: dict[str, Any] = {}
