@@ -295,9 +295,10 @@ def _traced_settings(solver: BatchedLevenbergMarquardt) -> BatchedLevenbergMarqu
     """The batched LM with its step budget, tolerances and damping as arrays, so that one
     compiled program serves every ``max_steps``, ``ftol``, ``xtol``, ``gtol`` and damping (as
     Python numbers each value compiles its own); the same operations on the same values."""
-    names = ("max_steps", "ftol", "xtol", "gtol", "initial_damping", "min_damping")
-    values = tuple(jnp.asarray(getattr(solver, k), jnp.int32 if k == "max_steps" else jnp.float64) for k in names)
-    return eqx.tree_at(lambda s: tuple(getattr(s, k) for k in names), solver, values)
+    tolerances = (solver.ftol, solver.xtol, solver.gtol, solver.initial_damping, solver.min_damping)
+    values = (jnp.asarray(solver.max_steps, jnp.int32), *(jnp.asarray(v, jnp.float64) for v in tolerances))
+    return eqx.tree_at(lambda s: (s.max_steps, s.ftol, s.xtol, s.gtol, s.initial_damping, s.min_damping), solver,
+                       values)
 
 
 def calibrate_batch(
