@@ -176,7 +176,8 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     }
     t = np.asarray(data.time)
     out["record"] = {"rows": int(t.size), "duration_s": float(t[-1]), "rate_hz": float((t.size - 1) / t[-1]),
-                     "notes": list(model.notes)}
+                     "notes": list(model.notes),
+                     "fit_starts": {name: list(v) for name, v in model.grids}}
     base = np.asarray(report.fitted.base)
     out["base_params"] = {
         "names": list(BASE_NAMES),

@@ -61,9 +61,11 @@ cabin kinetic energy (diagonal of ``M``) in the group's coordinates: ``swing`` (
 ``heave`` (δt_z), ``rotation`` (δφ). A cable mode that hardly moves the cabin takes the ratios of
 the cabin motion it carries.
 
-**Free response.** From a cabin displaced by ``q0`` and moving at ``v0`` with the cables in
-their quasi-static shape and velocity (``p = ṗ = 0``: released from rest after a slow push, or
-any state the cables followed quasi-statically), each mode evolves as the damped oscillator
+**Free response.** From a cabin displaced by ``q0`` and moving at ``v0``, the cables' nodes at
+``(1 − β)`` times the quasi-static shape and velocity this imposes (β = 0, ``p = ṗ = 0``: released
+from a static offset under a load, or any state the cables followed quasi-statically; β = 1, the
+nodes at rest in the static pose: a cabin displaced or struck faster than the string modes can
+follow), each mode evolves as the damped oscillator
 ``η(t) = e^{−ζωt} (η₀ cos ω_d t + (η̇₀ + ζ ω η₀)/ω_d sin ω_d t)``, ``ω_d = ω √(1 − ζ²)``,
 ``η₀ = φᵀ M y₀``.
 """
@@ -100,12 +102,17 @@ class CabinVariation(NamedTuple):
     - ``ea_change``: κ, the cables' axial stiffness is ``EA (1 + κ)``.
     - ``mass_change``: κ_m, every mass and inertia of the cabin assembly is ``(1 + κ_m)`` ×.
     - ``damping_change``: ``Float[Array, "3"]``, δζ per group of :data:`DAMPING_GROUPS`.
+    - ``node_lag``: β, how far the cables' nodes lag the cabin's initial state: they start at
+      ``(1 − β)`` × the quasi-static shape and velocity of the cabin's initial displacement and
+      velocity (0: released from a static offset, the cables in equilibrium with the cabin held
+      by a load; 1: the cables at rest in the static pose, as after an impulse on the cabin).
     """
 
     cable_mass_share: Float[ArrayLike, ""] = 0.0
     ea_change: Float[ArrayLike, ""] = 0.0
     mass_change: Float[ArrayLike, ""] = 0.0
     damping_change: Float[ArrayLike, "3"] = (0.0, 0.0, 0.0)
+    node_lag: Float[ArrayLike, ""] = 0.0
 
 
 class CabinModalModel(eqx.Module):
@@ -310,6 +317,11 @@ def cabin_modal_modes(model: CabinModalModel, variation: CabinVariation) -> Cabi
     return CabinModalModes(freq, shapes, share, groups, M)
 
 
+TIME_CHUNK = 2048
+"""Samples per block in which :func:`free_response` sums the modes (its memory, with the
+Jacobian's tangents, is that of one block, whatever the record's length)."""
+
+
 def free_response(
     model: CabinModalModel,
     variation: CabinVariation,
@@ -319,23 +331,42 @@ def free_response(
     time: Float[ArrayLike, " m"],
 ) -> Float[Array, "m 6"]:
     """The cabin's free response ``q(t)`` (m, rad; G) at the times ``time`` (s) from ``q0``
-    (m, rad) and ``v0`` (m/s, rad/s) at ``t = 0``, the cables in their quasi-static shape,
-    every mode damped at ``damping_ratio`` plus its group's ``variation.damping_change``
-    (see the module docstring). Differentiable in every argument."""
+    (m, rad) and ``v0`` (m/s, rad/s) at ``t = 0``, the cables' nodes at ``(1 − β)`` × the
+    quasi-static shape and velocity these impose (β = ``variation.node_lag``), every mode damped
+    at ``damping_ratio`` plus its group's ``variation.damping_change`` (see the module
+    docstring). Differentiable in every argument; evaluated in blocks of :data:`TIME_CHUNK`
+    samples (time and memory linear in the record's length)."""
     modes = cabin_modal_modes(model, variation)
     stable = modes.frequencies_hz > 0
     w = 2.0 * jnp.pi * jnp.where(stable, modes.frequencies_hz, 1.0)
     zeta = damping_ratio + modes.group_share @ jnp.asarray(variation.damping_change, jnp.float64)
     wd = w * jnp.sqrt(jnp.maximum(1.0 - zeta**2, 1e-6))
-    PM = modes.shapes.T @ modes.mass[:, :6]
-    eta0 = PM @ jnp.asarray(q0, jnp.float64)
-    deta0 = PM @ jnp.asarray(v0, jnp.float64)
-    t = jnp.asarray(time, jnp.float64)[:, None]
-    env = jnp.exp(-zeta * w * t)
-    eta = env * (eta0 * jnp.cos(wd * t) + (deta0 + zeta * w * eta0) / wd * jnp.sin(wd * t))
+    # NOTE (node state): the nodes x_n = G q + Ψ p start at (1 − β) G q0, so p0 = −β Ψᵀ M_n G q0
+    # = −β (Gᵀ M_n Ψ)ᵀ q0, and r0 = √μ₊ p0 in the scaled coordinates (likewise the velocity).
+    mu_p = jnp.maximum(jnp.asarray(variation.cable_mass_share, jnp.float64), MU_FLOOR)
+    lag = -jnp.asarray(variation.node_lag, jnp.float64) * jnp.sqrt(mu_p) * model.coupling.T
+    q0 = jnp.asarray(q0, jnp.float64)
+    v0 = jnp.asarray(v0, jnp.float64)
+    PM = modes.shapes.T @ modes.mass
+    eta0 = PM @ jnp.concatenate([q0, lag @ q0])
+    deta0 = PM @ jnp.concatenate([v0, lag @ v0])
     # NOTE: a direction with K φ = −s² M φ (stiffness changed beyond stability) grows as cosh/sinh:
     # such a model cannot describe a decaying record, and a fit that steps there sees it (an
     # overflow is an infinite χ², refused by the fits' line search).
     s = 2.0 * jnp.pi * jnp.where(stable, 1e-4, -modes.frequencies_hz)  # finite where unused
-    grow = eta0 * jnp.cosh(s * t) + deta0 / s * jnp.sinh(s * t)
-    return jnp.where(stable, eta, grow) @ modes.shapes[:6].T
+    cabin = modes.shapes[:6].T
+
+    def block(t):
+        t = t[:, None]
+        env = jnp.exp(-zeta * w * t)
+        eta = env * (eta0 * jnp.cos(wd * t) + (deta0 + zeta * w * eta0) / wd * jnp.sin(wd * t))
+        grow = eta0 * jnp.cosh(s * t) + deta0 / s * jnp.sinh(s * t)
+        return jnp.where(stable, eta, grow) @ cabin
+
+    t = jnp.asarray(time, jnp.float64)
+    m = t.shape[0]
+    if m <= TIME_CHUNK:
+        return block(t)
+    pad = (-m) % TIME_CHUNK
+    tp = jnp.concatenate([t, jnp.broadcast_to(t[-1], (pad,))]).reshape(-1, TIME_CHUNK)
+    return jax.lax.map(block, tp).reshape(-1, 6)[:m]

@@ -172,19 +172,24 @@ def lumped_free_decay(
     velocity: Float[ArrayLike, "6"] = (0.0,) * 6,
     damping_ratio: float = 0.005,
     R: Float[ArrayLike, "3 3"] | None = None,
+    cable_nodes: str = "equilibrium",
 ) -> FreeDecay:
     """Free decay of the cabin on ``n_segments`` lumped-mass segments per cable (see the module
     docstring): the cabin at ``displacement`` (m, rad) from the lumped statics' pose, moving at
-    ``velocity``, the nodes in the quasi-static shape and velocity this imposes; every mode of
-    cabin and nodes damped at ``damping_ratio``. ``dt`` defaults to half the explicit
+    ``velocity``; the nodes in the quasi-static shape and velocity this imposes
+    (``cable_nodes="equilibrium"``: released from a static offset under a load) or at rest in the
+    static pose (``"rest"``: the cabin displaced or struck faster than the cables follow); every
+    mode of cabin and nodes damped at ``damping_ratio``. ``dt`` defaults to half the explicit
     integrator's stability limit."""
     _check_common(position, duration, dt, displacement, velocity, damping_ratio)
+    if cable_nodes not in ("equilibrium", "rest"):
+        raise ValueError(f"cable_nodes must be 'equilibrium' or 'rest', got {cable_nodes!r}")
     pos = jnp.asarray(position, jnp.float64)
     modes = lumped_modes(params, pos, n_segments, R)
     if dt is None:
         dt = 0.95 / (2.0 * np.pi * float(np.max(np.asarray(modes.frequencies_hz))))
     K = np.asarray(modes.stiffness)
-    G = -np.linalg.solve(K[6:, 6:], K[6:, :6])
+    G = -np.linalg.solve(K[6:, 6:], K[6:, :6]) * (1.0 if cable_nodes == "equilibrium" else 0.0)
     q0 = np.asarray(displacement, dtype=np.float64)
     v0 = np.asarray(velocity, dtype=np.float64)
     n = int(round(duration / dt))

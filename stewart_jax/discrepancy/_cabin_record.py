@@ -29,11 +29,20 @@ The effects (registered under ``"fast-cabin"``; θ = 0 is the base model):
 
 NOTE (starting points): a cable inertia of μ = 1 halves the cabin's swing frequency; over a
 record of tens of periods the phase of a model with a slightly wrong frequency is anywhere, so
-a fit started at θ = 0 cannot find it. The model offers the workflow a grid of starting points
-for the three effects that change frequencies (:meth:`CabinRecordModel.effect_grid`): spaced so
-that no mode's phase at the record's end moves by more than :data:`PHASE_STEP_RAD` between
-neighbours (estimated on the cabin's six modes with the cables' added mass), over the ranges
-:data:`MASS_SHARE_RANGE`, and the stiffness tables' ``ea_range``, ``mass_range``.
+a fit started at θ = 0 cannot find it, and a grid fine enough in phase grows with the record's
+length. The model instead reads the record's own modes first (the multi-channel matrix pencil,
+:mod:`stewart_jax.cable_robot._pencil`, on the record whitened by the tracker's noise; linear in
+its length) and offers the workflow, per effect that changes frequencies, the few values at
+which the model's modes that move the cabin match those frequencies best
+(:meth:`CabinRecordModel.effect_grid`, :func:`frequency_starts`): a cheap first screen on the
+cabin's six modes with the cables' added mass (the rigid-cabin correction), refined on the full
+reduced model with its string modes. The physical fit then starts within a fraction of a
+phase step of the record's frequencies, however long the record.
+
+NOTE (record length): the model's time and memory are linear in the record's length (the modes
+are summed in blocks, :data:`~stewart_jax.cable_robot._cabin_modal.TIME_CHUNK`); a record whose
+fits would not fit in this machine's memory is refused before any fit, with the longest record
+it can take (:func:`check_memory`).
 """
 
 from __future__ import annotations
@@ -43,6 +52,7 @@ import os
 from typing import ClassVar, NamedTuple
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -51,11 +61,13 @@ from ..cable_robot._cabin_modal import (
     DAMPING_GROUPS,
     CabinModalModel,
     CabinVariation,
+    cabin_matrices,
     cabin_modal_model,
     cabin_modal_modes,
     free_response,
 )
 from ..cable_robot._free_decay import RECORD_COLUMNS, CabinRecord, check_record
+from ..cable_robot._pencil import record_modes
 from ._registry import AbstractDiscrepancyModel, Effect, register_effect
 
 MODEL_NAME = "fast-cabin"
@@ -68,12 +80,27 @@ DAMPING_START = 0.005
 """The damping ratio the base fit starts from (FAST's cabin: ≥ 0.004, Li, Sun, Li, Yao, Universe
 10(12):450, 2024)."""
 MASS_SHARE_RANGE = (0.0, 1.5)
-"""Range of the ``cable_inertia`` starting grid (the share of the cables' mass that moves)."""
-PHASE_STEP_RAD = 2.0
-"""Largest change of any mode's phase at the record's end between neighbouring grid points."""
-MAX_GRID = 400
-"""Most starting points per effect (a longer record is refused by the grid, see
-:func:`cabin_record_model`)."""
+"""Range of the ``cable_inertia`` starting values (the share of the cables' mass that moves)."""
+MAX_STARTS = 4
+"""Most starting values per effect (:func:`frequency_starts`), whatever the record's length."""
+SCAN_POINTS = 301
+"""Values of ``cable_stiffness`` and ``cabin_mass`` at which the model's six frequencies are
+compared with the record's."""
+INERTIA_SCAN_POINTS = 61
+"""Values of ``cable_inertia`` at which the full reduced model's frequencies are compared with the
+record's (steps of 0.025 in μ: ~1 % in the swing frequency, a fifth of :data:`MATCH_CAP`)."""
+PENCIL_ORDER = 24
+"""Poles the matrix pencil fits to a record (12 modes: the cabin's six and string modes)."""
+MATCH_CAP = 0.05
+"""Largest relative frequency mismatch a record's mode adds to the matching cost (a mode the
+model has no counterpart for costs no more than this)."""
+BYTES_PER_SAMPLE = 60_000
+"""Memory the workflow's fits take per sample of a record (bytes). An upper estimate: the
+whitened Jacobians of every unknown on the training and held-out rows, the whiteners and the
+candidates' held-out residuals, a few kB per sample, taken ten times for the fits' temporaries
+(the modal sums themselves are bounded by their block, not the record)."""
+MEMORY_SHARE = 0.5
+"""Share of the machine's available memory a record's fits may take."""
 MIN_PERIODS = 2.0
 """A record must last this many periods of the base model's lowest mode."""
 MAX_JITTER = 0.05
@@ -198,7 +225,7 @@ class CabinRecordModel(AbstractDiscrepancyModel):
 
     def initial_state(self, base, data: CabinRecordData, control: bool) -> CabinRecordState:
         z = jnp.zeros((), jnp.float64)
-        return CabinRecordState(base, CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS))), z)
+        return CabinRecordState(base, CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z), z)
 
     def finish(self, state: CabinRecordState, data: CabinRecordData) -> Float[Array, "m 6"]:
         b = state.base
@@ -244,32 +271,8 @@ class CabinRecordModel(AbstractDiscrepancyModel):
         return state.variation
 
 
-def _phase_grid(freq_of, lo: float, hi: float, duration_s: float, name: str) -> tuple[float, ...]:
-    """Values in [lo, hi] (0 left out: the row of zeros is always a start) such that no
-    frequency of ``freq_of(x)`` (Hz, an array) moves by more than :data:`PHASE_STEP_RAD` / (2π T)
-    between neighbours, walking out from 0 on a fine grid."""
-    kept = []
-    for end in (lo, hi):
-        if end == 0.0:
-            continue
-        fine = np.linspace(0.0, end, 2001)
-        f = np.stack([freq_of(x) for x in fine])
-        last = 0
-        for i in range(1, len(fine)):
-            if 2.0 * np.pi * duration_s * np.max(np.abs(f[i] - f[last])) > PHASE_STEP_RAD:
-                last = i - 1 if i - 1 != last else i
-                kept.append(float(fine[last]))
-        if last != len(fine) - 1:
-            kept.append(float(fine[-1]))
-    if len(kept) > MAX_GRID:
-        raise ValueError(f"a record of {duration_s:.0f} s needs {len(kept)} starting points to search {name} "
-                         f"(more than {MAX_GRID}); diagnose a shorter piece of the record")
-    return tuple(sorted(kept))
-
-
 def _six_frequencies(modal: CabinModalModel, which: str, x: float) -> np.ndarray:
-    # The cabin's six modes with the cables' added mass (no string modes): where the grid spacing
-    # is judged (numpy: thousands of 6×6 problems).
+    # The screen: the cabin's six modes with the cables' added mass (no string modes), numpy.
     K, M = np.asarray(modal.stiffness), np.asarray(modal.mass)
     if which == "cable_inertia":
         K = K + x * np.asarray(modal.lumped_stiffness_change)
@@ -283,6 +286,112 @@ def _six_frequencies(modal: CabinModalModel, which: str, x: float) -> np.ndarray
         M = M * (1.0 + x)
     lam = np.linalg.eigvals(np.linalg.solve(M, K)).real
     return np.sqrt(np.sort(np.abs(lam))) / (2.0 * np.pi)
+
+
+_cabin_matrices_jit = jax.jit(cabin_matrices)
+
+
+def _full_frequencies(modal: CabinModalModel, which: str, x: float, cutoff_hz: float) -> np.ndarray:
+    # The reduced model with its string modes: the modes below the cutoff that move the cabin.
+    import scipy.linalg
+
+    field = {"cable_inertia": "cable_mass_share", "cable_stiffness": "ea_change", "cabin_mass": "mass_change"}[which]
+    z = jnp.zeros(())
+    var = CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z)._replace(**{field: jnp.asarray(float(x))})
+    K, M = (np.asarray(a) for a in _cabin_matrices_jit(modal, var))
+    lam, phi = scipy.linalg.eigh(K, M)
+    share = np.einsum("km,kl,lm->m", phi[:6], M[:6, :6], phi[:6])
+    f = np.sqrt(np.abs(lam)) / (2.0 * np.pi)
+    return f[(share >= 0.01) & (f < cutoff_hz)]
+
+
+def _mismatch(f_record: np.ndarray, weight: np.ndarray, f_model: np.ndarray) -> float:
+    if f_model.size == 0:
+        return MATCH_CAP**2
+    d = np.min(np.abs(np.log(f_record[:, None]) - np.log(f_model[None, :])), axis=1)
+    return float(np.sum(weight * np.minimum(d, MATCH_CAP) ** 2))
+
+
+def frequency_starts(modal: CabinModalModel, which: str, lo: float, hi: float, f_record: np.ndarray,
+                     weight: np.ndarray, cutoff_hz: float) -> tuple[float, ...]:
+    """The values of effect ``which`` in ``[lo, hi]`` at which the model's modes best match the
+    record's (``f_record``, Hz, with ``weight``s summing to 1): the local minima of the matching
+    cost (Σ weight · min(|ln f − ln f_model|, :data:`MATCH_CAP`)², each record mode against the
+    nearest model mode that moves the cabin) on a scan of the range, each refined by a bounded
+    scalar search between its neighbours; at most :data:`MAX_STARTS`, best first; 0 left out (the
+    row of zeros is always a start).
+
+    ``cable_stiffness`` and ``cabin_mass`` are scanned on the cabin's six modes
+    (:data:`SCAN_POINTS` values; exact for them: the string modes' share vanishes at μ = 0);
+    ``cable_inertia`` on the full reduced model with its string modes (:data:`INERTIA_SCAN_POINTS`):
+    the six-mode screen's Rayleigh added mass ignores the coupling to the string modes and puts
+    the lumped model's swing at μ ≈ 1.3, not 1."""
+    from scipy.optimize import minimize_scalar
+
+    if which == "cable_inertia":
+        def cost(x):
+            return _mismatch(f_record, weight, _full_frequencies(modal, which, x, cutoff_hz))
+        xs = np.linspace(lo, hi, INERTIA_SCAN_POINTS)
+    else:
+        def cost(x):
+            return _mismatch(f_record, weight, _six_frequencies(modal, which, x))
+        xs = np.linspace(lo, hi, SCAN_POINTS)
+    c = np.array([cost(x) for x in xs])
+    interior = np.r_[True, c[1:] <= c[:-1]] & np.r_[c[:-1] <= c[1:], True]
+    order = [int(i) for i in np.argsort(c) if interior[i]][:MAX_STARTS]
+    starts = []
+    for i in order:
+        a, b = xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)]
+        x = float(minimize_scalar(cost, bounds=(a, b), method="bounded", options={"xatol": 1e-4 * (hi - lo)}).x)
+        if abs(x) > 1e-6 and all(abs(x - y) > 1e-3 * (hi - lo) for y in starts):
+            starts.append(x)
+    return tuple(starts)
+
+
+def record_frequencies(data: CabinRecordData, modal: CabinModalModel, sigma_mm: float,
+                       sigma_mrad: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The record's modes (matrix pencil on the pose whitened by the noise σ): frequencies (Hz),
+    their weights (squared amplitudes, summing to 1) and the cutoff (1.5 × the quasi-static
+    model's highest mode, the most any effect's range raises it)."""
+    f_qs = np.asarray(cabin_modal_modes(modal, CabinVariation()).frequencies_hz)[:6]
+    cutoff = 1.5 * float(f_qs[-1])
+    t = np.asarray(data.time)
+    y = np.asarray(data.pose) / np.array([sigma_mm] * 3 + [sigma_mrad] * 3)
+    y = y - y.mean(axis=0)
+    pm = record_modes(y, float(np.median(np.diff(t))), cutoff, PENCIL_ORDER)
+    if pm.frequency_hz.size == 0:
+        return np.asarray([float(f_qs[0])]), np.ones(1), cutoff
+    w = pm.amplitude**2
+    return pm.frequency_hz, w / np.sum(w), cutoff
+
+
+def check_memory(n_samples: int, rate_hz: float) -> None:
+    """Refuse, before any fit, a record of ``n_samples`` whose fits would take more than
+    :data:`MEMORY_SHARE` of this machine's available memory, saying how long a record (samples,
+    and minutes at ``rate_hz``) it can take."""
+    available = _available_memory_bytes()
+    if available is None:
+        return
+    most = int(MEMORY_SHARE * available / BYTES_PER_SAMPLE)
+    if n_samples > most:
+        raise ValueError(
+            f"the record has {n_samples} samples; diagnosing it needs about "
+            f"{n_samples * BYTES_PER_SAMPLE / 1e9:.1f} GB "
+            f"and this machine has {available / 1e9:.1f} GB available: it can take records of up to {most} samples "
+            f"({most / rate_hz / 60.0:.0f} min at the record's {rate_hz:.4g} Hz); resample the record to a lower rate "
+            "(its modes lie below 1.5 Hz) or diagnose it on a machine with more memory")
+
+
+def _available_memory_bytes() -> int | None:
+    try:
+        with open("/proc/meminfo") as f:
+            info = dict(line.split(":", 1) for line in f)
+        return int(info["MemAvailable"].split()[0]) * 1024
+    except (OSError, KeyError, ValueError):
+        try:
+            return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            return None
 
 
 def cabin_record_model(
@@ -316,12 +425,15 @@ def cabin_record_model(
     elif not np.allclose(np.asarray(modal.position), np.asarray(position, dtype=np.float64)):
         raise ValueError(f"the modal model is for {np.asarray(modal.position).tolist()} m, not {list(position)} m")
     notes = check_sampling(data, modal)
-    duration = float(data.time[-1] - data.time[0])
+    t = np.asarray(data.time)
+    check_memory(len(t), 1.0 / float(np.median(np.diff(t))))
+    duration = float(t[-1] - t[0])
+    sigma_mm, sigma_mrad = sigma_um * 1e-3, sigma_arcsec * math.pi / 648.0
+    f_rec, weight, cutoff = record_frequencies(data, modal, sigma_mm, sigma_mrad)
     ranges = {"cable_inertia": MASS_SHARE_RANGE, "cable_stiffness": modal.ea_range, "cabin_mass": modal.mass_range}
-    grids = tuple((name, _phase_grid(lambda x, n=name: _six_frequencies(modal, n, x), lo, hi, duration, name))
+    grids = tuple((name, frequency_starts(modal, name, lo, hi, f_rec, weight, cutoff))
                   for name, (lo, hi) in ranges.items())
-    return CabinRecordModel(modal, jnp.asarray(sigma_um * 1e-3), jnp.asarray(sigma_arcsec * math.pi / 648.0),
-                            grids, duration, tuple(notes))
+    return CabinRecordModel(modal, jnp.asarray(sigma_mm), jnp.asarray(sigma_mrad), grids, duration, tuple(notes))
 
 
 def check_sampling(data: CabinRecordData, modal: CabinModalModel) -> list[str]:
@@ -357,13 +469,18 @@ def check_sampling(data: CabinRecordData, modal: CabinModalModel) -> list[str]:
 # ---------------------------------------------------------------------------- effects
 
 
-@register_effect(MODEL_NAME, "cable_inertia", n_params=1, scale=0.3, unit="share of the cables' mass")
-def cable_inertia(theta: Float[Array, "1"], data, state: CabinRecordState) -> CabinRecordState:
+@register_effect(MODEL_NAME, "cable_inertia", n_params=2, scale=(0.3, 0.3),
+                 unit="share of the cables' mass; lag of the cables' nodes")
+def cable_inertia(theta: Float[Array, "2"], data, state: CabinRecordState) -> CabinRecordState:
     """The cables have mass that moves: lumped-mass cables (MoorDyn's discretisation, reduced
-    exactly to the cabin and the cables' fixed-interface string modes), θ the share μ of the
-    cables' mass that moves (0: the paper's quasi-static cables; 1: the lumped-mass model)."""
+    exactly to the cabin and the cables' fixed-interface string modes), θ₀ the share μ of the
+    cables' mass that moves (0: the paper's quasi-static cables; 1: the lumped-mass model), θ₁ the
+    lag β of the cables' nodes at the record's start (0: in the quasi-static shape of the cabin's
+    initial offset, released from a static offset under a load; 1: at rest in the static pose,
+    the cabin struck or displaced faster than the string modes follow)."""
     v = state.variation
-    return state._replace(variation=v._replace(cable_mass_share=v.cable_mass_share + theta[0]))
+    return state._replace(variation=v._replace(cable_mass_share=v.cable_mass_share + theta[0],
+                                               node_lag=v.node_lag + theta[1]))
 
 
 @register_effect(MODEL_NAME, "cable_stiffness", n_params=1, scale=0.1, unit="% of EA", report_factor=100.0)

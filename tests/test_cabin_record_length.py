@@ -1,0 +1,104 @@
+"""Cabin records of practical length: the record's modes read by the matrix pencil in time linear
+in its length (against records of known modes), the fit-settable initial state of the cables'
+nodes (against the lumped-mass integrator with the cables at rest), the starting values that a
+long record gets (a few per effect, the lumped model's share among them) and the refusal of a
+record too long for the machine's memory.
+
+Records are simulated by the time integrators at the centre with N = 3 segments per cable."""
+
+import time
+
+import numpy as np
+import pytest
+
+import stewart_jax  # noqa: F401
+from stewart_jax.cable_robot import (
+    CabinVariation,
+    cabin_modal_model,
+    lumped_free_decay,
+    paper_fast_params,
+)
+from stewart_jax.cable_robot._cabin_modal import free_response
+from stewart_jax.cable_robot._pencil import record_modes
+from stewart_jax.discrepancy import _cabin_record as cr, cabin_record_model, read_cabin_record
+
+PARAMS = paper_fast_params()
+POS = (0.0, 0.0, 140.0)
+N = 3
+Q0 = np.array([0.02, 0.01, 0.005, *np.deg2rad([0.01, 0.01, 0.02])])
+ZETA = 0.005
+
+
+@pytest.fixture(scope="module")
+def modal():
+    return cabin_modal_model(PARAMS, POS, N)
+
+
+def _record(freq_hz, zeta, amp, t):
+    w = 2 * np.pi * np.asarray(freq_hz)
+    wd = w * np.sqrt(1 - np.asarray(zeta) ** 2)
+    return (np.exp(-np.asarray(zeta) * w * t[:, None]) * np.cos(wd * t[:, None] + 0.4)) @ amp
+
+
+def test_record_modes_finds_the_modes_of_a_long_fast_sampled_record():
+    # an hour at 50 Hz (180 000 samples, 6 channels): decimated to ~4 samples per period of the
+    # highest frequency asked for, the poles read back at the block step
+    f = np.array([0.121, 0.148, 0.62])
+    zeta = np.array([0.005, 0.004, 0.01])
+    rng = np.random.default_rng(1)
+    amp = rng.normal(size=(3, 6))
+    t = np.arange(180_000) / 50.0
+    y = _record(f, zeta, amp, t) + 0.05 * rng.standard_normal((t.size, 6))
+    out = record_modes(y, 0.02, 1.5, 6)
+    fd = f * np.sqrt(1 - zeta**2)
+    np.testing.assert_allclose(out.frequency_hz, fd, rtol=1e-4)
+    np.testing.assert_allclose(out.damping_ratio, zeta, atol=5e-4)
+
+
+def test_record_modes_time_grows_linearly_with_the_record():
+    f, zeta, amp = np.array([0.13, 0.5]), np.array([0.005, 0.005]), np.ones((2, 6))
+    seconds = []
+    for n in (20_000, 160_000):
+        y = _record(f, zeta, amp, np.arange(n) / 10.0)
+        t0 = time.process_time()
+        record_modes(y, 0.1, 1.5, 4)
+        seconds.append(time.process_time() - t0)
+    # 8× the samples: linear is 8×, quadratic 64× (margin for a loaded machine's timer noise)
+    assert seconds[1] < 20.0 * max(seconds[0], 0.01), seconds
+
+
+def test_cables_at_rest_are_node_lag_one(modal):
+    # the lumped integrator with the nodes left at rest while the cabin is displaced, against the
+    # modal sum with β = 1 (and against β = 0, which it must not match)
+    d = lumped_free_decay(PARAMS, POS, N, 20.0, 5e-3, displacement=Q0, damping_ratio=ZETA, cable_nodes="rest")
+    err = {}
+    for beta in (0.0, 1.0):
+        var = CabinVariation(cable_mass_share=1.0, node_lag=beta)
+        pred = np.asarray(free_response(modal, var, ZETA, Q0, np.zeros(6), d.time))
+        err[beta] = np.sqrt(np.mean((d.cabin - pred) ** 2, axis=0))
+    noise = np.r_[[1e-3] * 3, [np.deg2rad(0.01)] * 3]
+    assert np.all(err[1.0] < 0.25 * noise), err[1.0] / noise
+    assert np.max(err[0.0] / err[1.0]) > 3.0, (err[0.0], err[1.0])
+
+
+def test_a_long_record_gets_few_starts_the_lumped_share_among_them(modal):
+    # 300 s at 10 Hz: a phase-step grid would need hundreds of starts; the record's own modes give
+    # at most MAX_STARTS per effect, and the one for the cables' inertia lands on the lumped model
+    d = lumped_free_decay(PARAMS, POS, N, 300.0, 5e-3, displacement=Q0, damping_ratio=ZETA)
+    data = read_cabin_record(d.sample(10.0, sigma_mm=1.0, sigma_deg=0.01, seed=0))
+    model = cabin_record_model(data, POS, modal=modal)
+    grids = dict(model.grids)
+    assert all(len(v) <= cr.MAX_STARTS for v in grids.values()), grids
+    assert abs(grids["cable_inertia"][0] - 1.0) < 0.02, grids
+
+
+def test_a_record_too_long_for_memory_is_refused_with_the_longest_it_can_take(modal, monkeypatch):
+    monkeypatch.setattr(cr, "_available_memory_bytes", lambda: 2_000_000_000)
+    t = np.arange(40_000) * 0.1
+    pose = np.zeros((t.size, 6))
+    pose[:, 0] = 20.0 * np.cos(2 * np.pi * 0.13 * t)
+    data = cr.record_data(t, pose[:, :3], pose[:, 3:])
+    most = int(cr.MEMORY_SHARE * 2_000_000_000 / cr.BYTES_PER_SAMPLE)
+    with pytest.raises(ValueError, match=f"up to {most} samples") as e:
+        cabin_record_model(data, POS, modal=modal)
+    assert "phase" not in str(e.value) and "starting points" not in str(e.value)
