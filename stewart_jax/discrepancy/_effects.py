@@ -113,3 +113,28 @@ def tracker_misalignment(theta: Float[Array, "6"], data: CalibrationData, state:
     rot = jnp.einsum("jk,mkl->mjl", rho, rotation_matrix(state.poses[:, 3:]))
     d = (state.poses[:, :3] + state.v0) @ rho.T + theta[3:] - state.v0
     return state._replace(poses=jnp.concatenate([d, euler_angles(rot)], axis=-1))
+
+
+@register_effect(
+    MODEL_NAME,
+    "tracker_scale",
+    n_params=1,
+    scale=1e-4,
+    unit="ppm",
+    report_factor=1e6,
+    acts_on="measurement",
+)
+def tracker_scale(theta: Float[Array, "1"], data: CalibrationData, state: PSSState) -> PSSState:
+    """The instrument's distances are scaled by ``1 + s`` (``s = theta[0]``, dimensionless; e.g.
+    the refractive index of air not applied to a laser tracker's interferometer, ~270 ppm at
+    sea level): a measured position is ``x_M = (1 + s)·x`` about the instrument frame's origin,
+    so the true platform position is ``d + v0 = (d' + v0) / (1 + s)``; angles are not scaled.
+    A shift of the scaling's centre is a shift of the frame (``tracker_misalignment``). Acts on
+    the measurement only.
+
+    Exact equivalence: for a strut hexapod a common scale of every position is a scale of the
+    geometry times one scale of every strut length, so ``tracker_scale`` ≡ ``strut_scale`` with
+    equal ``k_i`` + geometry; only a reference length measured by the tracker (a calibrated
+    scale bar) or by the struts separates them."""
+    d = (state.poses[:, :3] + state.v0) / (1.0 + theta[0]) - state.v0
+    return state._replace(poses=jnp.concatenate([d, state.poses[:, 3:]], axis=-1))

@@ -23,7 +23,7 @@ from jaxtyping import Array, Float
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._rus import RUSMechanism
-from ._effects import DRIFT_TIME_UNIT_S, T_REF_C, tracker_misalignment
+from ._effects import DRIFT_TIME_UNIT_S, T_REF_C, tracker_misalignment, tracker_scale
 from ._families import check_noise, register_model_family
 from ._pose_noise import AbstractMechanismModel
 from ._registry import register_effect
@@ -148,3 +148,10 @@ rus_tracker_misalignment = register_effect(
     acts_on=tracker_misalignment.acts_on)(tracker_misalignment.apply)
 """The instrument frame's rotation and shift (:func:`~stewart_jax.discrepancy._effects.tracker_misalignment`):
 it maps the measured poses, whatever the legs."""
+
+
+rus_tracker_scale = register_effect(
+    MODEL_NAME, tracker_scale.name, n_params=tracker_scale.n_params, scale=tracker_scale.scale,
+    unit=tracker_scale.unit, report_factor=tracker_scale.report_factor,
+    acts_on=tracker_scale.acts_on)(tracker_scale.apply)
+"""The instrument's distance scale (:func:`~stewart_jax.discrepancy._effects.tracker_scale`)."""

@@ -11,7 +11,7 @@ are per strut (index ``i`` = strut ``i + 1``) unless stated; ``m`` is the number
 
 Effects are registered per model, so the 6-PSS's slider effects (``actuator_tilt``) are not
 offered for struts; those whose physics does not depend on the leg (``backlash``, ``drift``,
-``tracker_misalignment``) are the 6-PSS definitions registered again under this model. There
+``tracker_misalignment``, ``tracker_scale``) are the 6-PSS definitions registered again under this model. There
 is no ``zero_offset``: the zero-reading lengths ``lengths0`` are base parameters of the strut
 model already.
 """
@@ -22,7 +22,7 @@ from jaxtyping import Array, Float
 
 from .._units import UM
 from ..calibration._problem import CalibrationData
-from ._effects import T_REF_C, backlash, drift, tracker_misalignment
+from ._effects import T_REF_C, backlash, drift, tracker_misalignment, tracker_scale
 from ._registry import Effect, register_effect
 from ._ups import MODEL_NAME, UPSState, gravity_axial_loads
 
@@ -83,3 +83,4 @@ def _same_physics(effect: Effect) -> Effect:
 ups_backlash = _same_physics(backlash)
 ups_drift = _same_physics(drift)
 ups_tracker_misalignment = _same_physics(tracker_misalignment)
+ups_tracker_scale = _same_physics(tracker_scale)
