@@ -273,3 +273,30 @@ def test_cli_help_lists_each_familys_effects():
     help_text = next(a.help for a in sub.choices["diagnose"]._actions if "--effects" in a.option_strings)
     assert "6-UPS: " + ", ".join(EFFECTS) in help_text
     assert "6-PSS: " + ", ".join(dc.effect_names("6-pss")) in help_text
+
+
+def test_temperature_noise_correction_is_the_dense_covariance(camera, model, rows):
+    """The held-out χ² drop for a noisy recorded temperature (rank-one update) against the dense
+    covariance ``s·I + u uᵀ`` inverted directly, with ``∂prediction/∂T`` by central differences."""
+    from stewart_jax.discrepancy._errors_in_variables import heldout_corrections
+
+    e = dc.get_effect(MODEL, "thermal_expansion")
+    t = ORACLE_THETA["thermal_expansion"] * 50  # a strong expansion: |u| comparable to the noise
+    nb = model.base_initial.shape[0]
+    z = np.zeros((2, nb + 6))
+    z[1, nb:] = t / np.asarray(e.scale)
+    w = np.asarray(model.whitener(model.base_initial, rows))
+    r = np.random.default_rng(1).standard_normal((2, 8 * 6))
+    sigma_t, s = 0.05, 1.7
+    got = heldout_corrections(model, (e,), z, w, r, rows, sigma_t, s)[0]
+
+    def pred(dtemp):
+        d = rows._replace(temperature=rows.temperature + dtemp)
+        return np.asarray(model.predict(camera.params, (e,), (jnp.asarray(t),), d))
+
+    g = (pred(1e-3) - pred(-1e-3)) / 2e-3
+    u = np.einsum("mij,mj->mi", w, g) * sigma_t
+    rr = r[1].reshape(8, 6)
+    dense = sum(rj @ np.linalg.solve(s * np.eye(6) + np.outer(uj, uj), rj) for rj, uj in zip(rr, u, strict=True))
+    assert np.max(np.abs(u)) > 0.3  # the correction is not negligible here
+    np.testing.assert_allclose(np.sum(rr**2) - got, s * dense, rtol=1e-6)

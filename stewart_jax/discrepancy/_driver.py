@@ -40,6 +40,7 @@ import numpy as np
 
 from ._discovery import challenge, describe, supports_discovery, term_units
 from ._equivalence import equivalences, separated_by
+from ._errors_in_variables import heldout_corrections
 from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
@@ -124,6 +125,7 @@ def diagnose(
     alpha: float = 0.05,
     estimate_noise: bool = False,
     discover: bool = True,
+    temperature_std_k: float = 0.0,
 ) -> DiagnosisReport:
     """Run the discrepancy workflow on one data set (see the module docstring).
 
@@ -133,7 +135,11 @@ def diagnose(
     ``estimate_noise``: take the noise scale from the base fit's training residuals (F tests)
     instead of trusting the model's σ (χ² tests). ``discover``: when a discrepancy is detected
     that no candidate explains, search the open library of terms (``_discovery.py``).
+    ``temperature_std_k``: standard deviation of the recorded temperature (K); a candidate that
+    reads it is tested with that error in its prediction (``_errors_in_variables.py``).
     """
+    if not temperature_std_k >= 0:
+        raise ValueError(f"temperature_std_k must be ≥ 0 K, got {temperature_std_k}")
     n = model.n_rows(data)
     train_idx, test_idx = split_rows(n, holdout_fraction, seed)
     check_sizes(model, n, len(train_idx), len(test_idx))
@@ -142,7 +148,7 @@ def diagnose(
         raise ValueError(f"no candidate effect can be fitted to these data: {[s.to_dict() for s in skipped]}")
     train, test = model.take(data, train_idx), model.take(data, test_idx)
     return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped,
-                         discover=discover)[0]
+                         discover=discover, temperature_std_k=temperature_std_k)[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -193,6 +199,7 @@ def diagnose_many(
     estimate_noise: bool = False,
     skipped: Sequence[SkippedEffect] | None = None,
     discover: bool = True,
+    temperature_std_k: float = 0.0,
 ) -> list[DiagnosisReport]:
     """:func:`diagnose` on many train/held-out pairs at once (same shapes and columns; all
     fits batched). ``effects`` must be applicable to every data set."""
@@ -206,7 +213,8 @@ def diagnose_many(
         # NOTE: one data set at a time (the same compiled kernels): see the model's
         # ``batched_fits``.
         return [diagnose_many(model, effects, [tr], [te], alpha=alpha, estimate_noise=estimate_noise,
-                              skipped=skipped, discover=discover)[0] for tr, te in zip(trains, tests, strict=True)]
+                              skipped=skipped, discover=discover, temperature_std_k=temperature_std_k)[0]
+                for tr, te in zip(trains, tests, strict=True)]
     train_b, test_b = _stack(trains), _stack(tests)
     fits = fit_candidates(model, effects, train_b, test_b)
     nb = model.base_initial.shape[0]
@@ -214,7 +222,8 @@ def diagnose_many(
     slices = effect_slices(model, effects)
     known = not estimate_noise
 
-    decisions = [_decide(b, fits, effects, slices, nb, alpha, known, model) for b in range(len(trains))]
+    decisions = [_decide(b, fits, effects, slices, nb, alpha, known, model, tests[b], temperature_std_k)
+                 for b in range(len(trains))]
     # NOTE: the named candidate is compared with every other significant one by fitting both
     # together (encompassing tests). If the named one is rejected against the pair while the
     # other is not, the other explains everything the named one does and more: it is named
@@ -265,6 +274,8 @@ def _decide(
     alpha: float,
     known: bool,
     model: AbstractDiscrepancyModel,
+    test: Any,
+    temperature_std_k: float,
 ) -> _Decision:
     k = len(effects)
     chi2 = np.asarray(fits.chi2[b], dtype=float)
@@ -283,6 +294,7 @@ def _decide(
     t0 = heldout_chi2(white_te[0], jac_tr[:, g_cols], jac_te[:, g_cols])
     p_detect = heldout_p(t0, n_te, dof0, scale2, known)
 
+    eiv = heldout_corrections(model, effects, np.asarray(fits.z[b]), w_te, white_te, test, temperature_std_k, scale2)
     bic0 = bic(chi2[0], rank_g, n_tr, known)
     partial = []
     for i, e in enumerate(effects):
@@ -292,7 +304,7 @@ def _decide(
         dof_c = n_tr - rank_g - df
         p = nested_p(chi2[0], chi2[i + 1], df, dof_c, known)
         bic_c = bic(chi2[i + 1], rank_g + df, n_tr, known)
-        t = heldout_chi2(white_te[i + 1], jac_tr[:, cols], jac_te[:, cols])
+        t = heldout_chi2(white_te[i + 1], jac_tr[:, cols], jac_te[:, cols]) - eiv[i]
         theta = np.asarray(fits.z[b, i + 1])[slices[i]] * np.asarray(e.scale) * np.asarray(e.report_factor)
         partial.append(
             dict(
