@@ -51,6 +51,8 @@ from stewart_jax.calibration import make_calibration_data  # noqa: E402
 from stewart_jax.discrepancy._driver import diagnose_many, select_effects, split_rows  # noqa: E402
 
 SIZES = (0.0, 0.1, 0.25, 0.5, 1.0)
+TEMP_NOISE_K = 0.01
+"""σ of the recorded temperature (K), simulated and stated to the workflow."""
 RIGHT = {"strut_scale_2000ppm": "strut_scale", "tracker_scale": "tracker_scale", "blend": "strut_scale",
          "thermal_expansion": "thermal_expansion"}
 OUTCOMES = ("named", "set", "registered_part", "partial", "unexplained", "discovered", "wrong", "missed",
@@ -96,14 +98,14 @@ def run_seed(noise: float, s: int):
     for c, (eff, f) in enumerate(cases()):
         rng = np.random.default_rng([s, c, 38])  # the same truth and noise draws at every level
         ses = session("6-UPS", geo, eff, rng, half=half, n=180, sigma_um=0.1 * noise, sigma_arcsec=0.1 * noise,
-                      temp_noise_K=0.01, blend=f)
+                      temp_noise_K=TEMP_NOISE_K, blend=f)
         data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(180, 0.3, s)
         trains.append(data.take(tr))
         tests.append(data.take(te))
         meta.append((eff, f))
     effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
-    reps = diagnose_many(model, effects, trains, tests)
+    reps = diagnose_many(model, effects, trains, tests, temperature_std_k=TEMP_NOISE_K)  # the stated σ
     return [{"noise": noise, "seed": s, "true": eff or "none", "size": f, "outcome": outcome(eff, f, r),
              "named": r.named_effect, "indistinguishable_from": r.indistinguishable_from,
              "additional": r.additional_effects, "explained": r.explained, "bad_terms": bad_terms(r),

@@ -20,7 +20,8 @@ registers (its candidate list) and effects it does not:
 
 Near-equivalent and instrument effects (6-UPS; ``NEAR_EQUIVALENT``):
 
-- ``load_compliance``: each strut stretches by its axial compliance times its axial force from a
+- ``load_compliance``: each strut stretches by its axial compliance (struts of one design: one
+  value, 60–120 µm per payload weight, ±5 % from strut to strut) times its axial force from a
   heavy payload whose centre of mass is off A's origin (``com`` mm in A), at a telescope
   elevation (gravity along ``(0, −cos e, −sin e)`` in B): close to, not the same as, the
   registered weight at A's origin along −z;
@@ -155,7 +156,8 @@ def _draw(rng, effect, family, n_legs=6):
     """True parameters of ``effect`` (physical units: mm, 1/K, rad, mm/s, dimensionless)."""
     sgn = rng.choice([-1.0, 1.0], n_legs)
     if effect == "load_compliance":
-        return {"c": rng.uniform(60, 120, n_legs) * UM, "com": rng.uniform(150, 300, 3) * rng.choice([-1, 1], 3),
+        return {"c": rng.uniform(60, 120) * rng.uniform(0.95, 1.05, n_legs) * UM,
+                "com": rng.uniform(150, 300, 3) * rng.choice([-1, 1], 3),
                 "elevation_deg": float(rng.uniform(30, 60))}
     if effect == "tracker_scale":
         return {"s": 270e-6}
