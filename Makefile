@@ -11,7 +11,7 @@ DEMO_TRIALS ?= 10
 DEMO_BUDGET ?= 50000
 DEMO_METHODS ?= all
 
-.PHONY: venv demo test lint docs bench bench-deps clean
+.PHONY: venv demo test durations lint docs bench bench-deps clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,12 +25,23 @@ demo: $(STAMP)
 	$(BIN)/stewart-jax study --methods $(DEMO_METHODS) --trials $(DEMO_TRIALS) --max-evaluations $(DEMO_BUDGET)
 
 # Two workers, one test file each (module fixtures and compilations stay shared within a file),
-# the slowest files first (tests/conftest.py). Most of the suite's time is XLA compiling small
-# programs, so the tests compile with LLVM's -O0 (XLA's own HLO optimisations, fusion included,
-# are unchanged): 20-30 % less time per file, measured on test_trust/test_study/test_calibration.
-# Benchmarks and the demo compile with the defaults.
+# the slowest files first (the seconds recorded in tests/durations.json, which a run writes where
+# it is missing; `make durations` runs the suite and records them again). Most of the suite's time is XLA compiling small programs, so the
+# tests compile with LLVM's -O0 (XLA's own HLO optimisations, fusion included, are unchanged):
+# 20-30 % less time per file, measured on test_trust/test_study/test_calibration. The two workers
+# share what they compile through the persistent compilation cache in .cache/ of this checkout
+# (empty in a fresh clone, so a CI run still compiles each program once, not once per worker;
+# a second `make test` reads most programs back). Benchmarks and the demo compile with the
+# defaults.
+TEST_CACHE ?= $(CURDIR)/.cache/compilation
+PYTEST_RUN = STEWART_JAX_CACHE_DIR="$${STEWART_JAX_CACHE_DIR:-$(TEST_CACHE)}" \
+	XLA_FLAGS="--xla_backend_optimization_level=0 $$XLA_FLAGS" $(BIN)/python -m pytest -q -n 2 --dist loadfile
+
 test: $(STAMP)
-	XLA_FLAGS="--xla_backend_optimization_level=0 $$XLA_FLAGS" $(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
+	$(PYTEST_RUN) --durations=15 $(if $(wildcard tests/durations.json),,--record-durations)
+
+durations: $(STAMP)
+	$(PYTEST_RUN) --record-durations
 
 lint: $(STAMP)
 	$(BIN)/ruff check stewart_jax tests benchmarks

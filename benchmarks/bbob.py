@@ -65,7 +65,7 @@ OURS = {
     "CMA-ES": so.CMAES,
     "DE": so.DifferentialEvolution,
     "PSO": so.ParticleSwarm,
-    "CS": lambda **kw: so.CuckooSearch(n_nests=N_POP, **kw),
+    "CS": lambda **kw: so.CuckooSearch(population_size=N_POP, **kw),
     "NM": so.NelderMead,
     "SMCS": so.SMCS,
     "VSA-SMCS": so.VSASMCS,

@@ -39,7 +39,7 @@ from _common import write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
 from stewart_jax import discrepancy as dc  # noqa: E402
-from stewart_jax.calibration._points import default_registration, default_targets  # noqa: E402
+from stewart_jax.calibration._points_simulation import default_registration, default_targets  # noqa: E402
 
 
 def main() -> None:

@@ -124,13 +124,13 @@ def main(argv=None) -> int:
 
     for method in ("cs", "vsa-smcs"):
         # compile ahead of time (``lower().compile()``), then time the compiled call alone
-        solver = make_solver(method, None, n_nests=37)  # mealpy and the NumPy CS use 37 nests too
+        solver = make_solver(method, None, population_size=37)  # mealpy and the NumPy CS use 37 nests too
         call = (solver, one, jax.random.key(1), budget)
         t0 = time.perf_counter()
         compiled = _run_one.lower(*call).compile()
         compile_s = time.perf_counter() - t0
         sec, res = timed(lambda c=compiled, a=call: c(*a))
-        add(f"stewart_jax {method} (1 trial, pop {solver.n_nests})", int(res.n_evaluations), sec, compile_s)
+        add(f"stewart_jax {method} (1 trial, pop {solver.population_size})", int(res.n_evaluations), sec, compile_s)
         batch = jax.tree.map(lambda x: x[:n_batch], problems)
         call = (solver, batch, jax.random.split(jax.random.key(2), n_batch), budget)
         t0 = time.perf_counter()

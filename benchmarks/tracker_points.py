@@ -46,14 +46,12 @@ from stewart_jax.calibration import (  # noqa: E402
     reachable_travel,
 )
 from stewart_jax.calibration._identifiability import predicted_control_error_std  # noqa: E402
-from stewart_jax.calibration._points import (  # noqa: E402
-    DEFAULT_TRACKER_SIGMA,
+from stewart_jax.calibration._points import DEFAULT_TRACKER_SIGMA, rigid_poses, start_values  # noqa: E402
+from stewart_jax.calibration._points_simulation import (  # noqa: E402
     _tracker_noise,
     default_registration,
     default_targets,
-    rigid_poses,
     simulate_points,
-    start_values,
 )
 from stewart_jax.mechanism import preset  # noqa: E402
 

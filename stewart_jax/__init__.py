@@ -13,6 +13,7 @@ and geometry files, forward and inverse kinematics, the measurement CSV, simulat
 - :mod:`stewart_jax.study` — the papers' Monte Carlo studies;
 - :mod:`stewart_jax.discrepancy` — the model-discrepancy workflow;
 - :mod:`stewart_jax.cable_robot` — the FAST cable-driven feed support (Yin et al.);
+- :mod:`stewart_jax.compensation` — telescope compensation tables in the controller's format;
 - :mod:`stewart_jax.plotting` — figures (needs matplotlib).
 
 Every name loads its subpackage on first use: ``import stewart_jax`` itself loads neither JAX
@@ -38,6 +39,7 @@ if TYPE_CHECKING:  # the names below, for readers and type checkers; at run time
     from . import (
         cable_robot as cable_robot,
         calibration as calibration,
+        compensation as compensation,
         discrepancy as discrepancy,
         mechanism as mechanism,
         optimise as optimise,
@@ -64,7 +66,8 @@ if TYPE_CHECKING:  # the names below, for readers and type checkers; at run time
         save_mechanism as save_mechanism,
     )
 
-_SUBPACKAGES = ("cable_robot", "calibration", "discrepancy", "mechanism", "optimise", "plotting", "study")
+_SUBPACKAGES = ("cable_robot", "calibration", "compensation", "discrepancy", "mechanism", "optimise", "plotting",
+                "study")
 _NAMES = {
     **dict.fromkeys(("euler_angles", "rotation_matrix"), "_math"),
     **dict.fromkeys(("calibrate", "calibration_problem", "control_error", "plan_poses", "read_csv",

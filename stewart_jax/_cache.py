@@ -20,7 +20,7 @@ jaxlib version. This module chooses the folder and the entry class:
 - entries are written to a temporary file and renamed (a second process never reads half an
   entry), an entry that fails to decompress is deleted and compiled again, and the folder is
   kept under ``STEWART_JAX_CACHE_MAX_MB`` (default 1024 MB) by deleting the least recently used
-  entries.
+  entries (checked at a process's first write, and whenever its own writes pass the limit).
 """
 
 from __future__ import annotations
@@ -129,6 +129,7 @@ def _atomic_store_class(cc):
         def __init__(self, path: Path, limit: int):
             self._path = path
             self.limit = limit
+            self.size: int | None = None  # the folder's bytes, counted at this process's first write
 
         def get(self, key: str) -> bytes | None:
             entry = self._path / f"{key}{_SUFFIX}"
@@ -158,7 +159,12 @@ def _atomic_store_class(cc):
             except OSError:
                 _unlink(tmp)
                 return
-            evict(self._path, self.limit)
+            # NOTE: the folder is listed once per process (and again whenever this process's own
+            # writes take it past the limit), not at every write: a test run writes thousands of
+            # entries, and listing thousands of files per entry cost more than the compilations.
+            self.size = (evict(self._path, self.limit) if self.size is None else self.size + len(value))
+            if self.size > self.limit:
+                self.size = evict(self._path, self.limit)
 
         def clear(self) -> None:
             for entry in self._path.glob(f"*{_SUFFIX}"):
@@ -167,9 +173,9 @@ def _atomic_store_class(cc):
     return AtomicStore
 
 
-def evict(path: Path, limit: int) -> None:
+def evict(path: Path, limit: int) -> int:
     """Delete the least recently used entries until the folder holds at most ``limit`` bytes
-    (and temporary files a crashed writer left over an hour ago)."""
+    (and temporary files a crashed writer left over an hour ago); the bytes left."""
     now = time.time()
     entries = []
     for item in path.iterdir():
@@ -187,6 +193,7 @@ def evict(path: Path, limit: int) -> None:
             break
         _unlink(item)
         total -= size
+    return total
 
 
 def _unlink(path: Path) -> None:

@@ -1,8 +1,10 @@
 """Shared fixtures. Geometries and pose grids are module-level so that jitted functions
 compile once per shape across the whole session."""
 
+import json
 import os
 from collections import Counter
+from pathlib import Path
 
 os.environ["MPLBACKEND"] = "Agg"  # the tests only write figures; the library never picks a backend
 
@@ -19,33 +21,26 @@ ARCSEC = np.pi / (180.0 * 3600.0)
 TRAVEL_MM = 1.0
 TRAVEL_RAD = float(np.deg2rad(1.0))
 
-# The test files that take longest (measured with --durations on a 2-core machine; compilation
-# dominates), longest first. `make test` runs two xdist workers, each taking one whole
-# file at a time (`--dist loadfile`) in the order of the collection; xdist's default order (most
-# tests first) started the documentation build, a third of the whole suite's time in one file,
-# halfway through the run, and it finished minutes after everything else. Longest first, the
-# short files fill the gaps at the end. A file missing here only runs later.
-SLOW_FILES_FIRST = (
-    "test_docs.py",  # the strict build, which executes the six notebooks
-    "test_discrepancy.py",
-    "test_discrepancy_points.py",  # about 4 min: seven diagnoses of tracker points (-O0, load 10)
-    "test_solvers.py",
-    "test_comparison.py",
-    "test_ups.py",
-    "test_mechanism.py",
-    "test_discrepancy_ups.py",
-    "test_trust.py",
-    "test_batched_lm.py",
-    "test_multihost.py",
-    "test_pss_general.py",
-    "test_any_hexapod.py",
-    "test_cable_robot_coupled.py",
-    "test_discrepancy_cable_robot.py",
-    "test_identifiability.py",
-    "test_sharding.py",
-    "test_cable_robot_stewart.py",
-    "test_study.py",
-)
+# The order of the test files: longest first, from the seconds each file took in the last
+# recorded run (tests/durations.json; `make test` records them, `make durations` records them
+# without the other options). `make test` runs two xdist workers, each taking one whole file at a
+# time (`--dist loadfile`) in the order of the collection; xdist's default order (most tests
+# first) started the documentation build, a third of the whole suite's time in one file, halfway
+# through the run, and it finished minutes after everything else. Longest first, the short files
+# fill the gaps at the end. A file never recorded counts as the median file.
+DURATIONS = Path(__file__).with_name("durations.json")
+
+
+def recorded_durations() -> dict[str, float]:
+    try:
+        return {k: float(v) for k, v in json.loads(DURATIONS.read_text(encoding="utf-8"))["seconds"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
+def pytest_addoption(parser):
+    parser.addoption("--record-durations", action="store_true",
+                     help="write each test file's seconds (setup + call + teardown) to tests/durations.json")
 
 
 def pytest_configure(config):
@@ -55,11 +50,35 @@ def pytest_configure(config):
 
 
 def pytest_collection_modifyitems(config, items):
-    """The slow files first (longest first), then the others by number of tests (xdist's own
-    order); every file's tests stay together and in their order."""
-    rank = {name: i for i, name in enumerate(SLOW_FILES_FIRST)}
+    """The files in decreasing recorded seconds (then by number of tests, xdist's own order);
+    every file's tests stay together and in their order."""
+    seconds = recorded_durations()
+    default = float(np.median(list(seconds.values()))) if seconds else 0.0
     count = Counter(item.path.name for item in items)
-    items.sort(key=lambda item: (rank.get(item.path.name, len(rank)), -count[item.path.name], str(item.path)))
+    items.sort(key=lambda item: (-seconds.get(item.path.name, default), -count[item.path.name], str(item.path)))
+
+
+_FILE_SECONDS: Counter = Counter()
+
+
+def pytest_runtest_logreport(report):
+    # in the controller, also for every worker's report (pytest-xdist)
+    _FILE_SECONDS[Path(report.fspath).name] += report.duration
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """``--record-durations``: the files that ran replace their entries; the others are kept."""
+    config = session.config
+    if not config.getoption("--record-durations") or hasattr(config, "workerinput") or not _FILE_SECONDS:
+        return
+    from stewart_jax._files import write_text_atomic
+
+    seconds = recorded_durations()
+    seconds.update({name: round(s, 1) for name, s in _FILE_SECONDS.items()})
+    payload = {"about": "seconds per test file in the last recorded run (setup + call + teardown); "
+                        "tests/conftest.py runs the longest first. Refresh: make durations",
+               "seconds": dict(sorted(seconds.items(), key=lambda kv: -kv[1]))}
+    write_text_atomic(str(DURATIONS), json.dumps(payload, indent=1) + "\n")
 
 
 @pytest.fixture(scope="session")

@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 API = ROOT / "docs" / "api"
 PACKAGES = ["stewart_jax"] + [
     f"stewart_jax.{name}"
-    for name in ("mechanism", "calibration", "optimise", "study", "discrepancy", "cable_robot", "plotting")
+    for name in ("mechanism", "calibration", "optimise", "study", "discrepancy", "cable_robot", "plotting",
+                 "compensation")
 ]
 
 

@@ -207,14 +207,15 @@ def test_de_agrees_with_scipy_differential_evolution():
     ref = scipy_opt.differential_evolution(f, [(-5.0, 5.0)] * 3, strategy="rand1bin", mutation=0.5,
                                            recombination=0.9, popsize=12, maxiter=300, tol=0, polish=False,
                                            seed=1, init="random")
-    ours = minimise(rosenbrock, DifferentialEvolution(n_nests=36), -5.0 * jnp.ones(3), 5.0 * jnp.ones(3),
+    ours = minimise(rosenbrock, DifferentialEvolution(population_size=36), -5.0 * jnp.ones(3), 5.0 * jnp.ones(3),
                     jax.random.key(1), max_evaluations=36 * 301)
     # same algorithm, same population (36) and generations: both at Rosenbrock's optimum 0
     assert ref.fun < 1e-8 and float(ours.cost) < 1e-8
 
 
 @pytest.mark.parametrize("bad", [lambda: CMAES(sigma0=0.0), lambda: CMAES(population_size=2),
-                                 lambda: DifferentialEvolution(crossover=1.5), lambda: DifferentialEvolution(n_nests=3),
+                                 lambda: DifferentialEvolution(crossover=1.5),
+                                 lambda: DifferentialEvolution(population_size=3),
                                  lambda: ParticleSwarm(inertia=1.2), lambda: ParticleSwarm(v_max=0.0),
                                  lambda: VSASMCS(p=jnp.array([5.0, 40.0])), lambda: SMCS(pa=np.array([0.2, 1.5]))])
 def test_bad_hyper_parameters_raise(bad):

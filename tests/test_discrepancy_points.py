@@ -37,7 +37,7 @@ def camera():
 
 @pytest.fixture(scope="module")
 def setup(camera):
-    from stewart_jax.calibration._points import default_registration, default_targets
+    from stewart_jax.calibration._points_simulation import default_registration, default_targets
 
     targets = default_targets(camera)
     rot, t = default_registration(camera)
@@ -136,7 +136,7 @@ def test_no_alarm_without_a_hidden_effect(reports):
 
 
 def test_cli_diagnoses_a_points_file(tmp_path, camera, setup, capsys):
-    from stewart_jax.calibration._points import write_points_csv, write_targets
+    from stewart_jax.calibration._points_io import write_points_csv, write_targets
 
     targets = setup[0]
     data, _ = points_session(camera, setup, None, 100, scale_ppm=SCALE_PPM)

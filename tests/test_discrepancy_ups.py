@@ -12,6 +12,7 @@ diagnose call, the command line's included, shares one set of compiled kernels.
 """
 
 import argparse
+import dataclasses
 import json
 
 import jax.numpy as jnp
@@ -205,6 +206,19 @@ def test_no_hidden_effect_is_not_named(reports):
     assert rep.gap_before < 1.3 * rep.noise_floor_predictive
 
 
+def test_a_candidate_that_widens_the_gap_is_not_called_an_explanation(reports):
+    """The summary's words follow the candidate's share of the gap: a positive share is a partial
+    explanation; a candidate whose held-out RMS exceeds the gap without it widens the gap."""
+    rep = reports[None]
+    gap = rep.gap_before
+    partial = [{"effect": "strut_scale", "gap_share": 0.4, "heldout_rms": 0.9 * gap, "heldout_p": 1e-3},
+               {"effect": "backlash", "gap_share": -0.14, "heldout_rms": 1.05 * gap, "heldout_p": 1e-4}]
+    lines = dataclasses.replace(rep, detected=True, partial=partial).summary()
+    assert any(line.startswith("partial explanation: strut_scale removes 40 % of the gap") for line in lines)
+    widens = [line for line in lines if "backlash" in line]
+    assert widens == [f"not an explanation: backlash widens the held-out gap (RMS {gap:.3g} → {1.05 * gap:.3g} µm)"]
+
+
 def test_tracker_misalignment_is_absorbed_by_the_base_joints(camera, model, rows):
     """A misaligned instrument frame (x_B = R·x_M + τ) re-expresses the base joints exactly,
     ``b' = Rᵀ(b − τ)``: for a strut hexapod it has no signature the 42 parameters cannot absorb
@@ -270,6 +284,14 @@ def test_models_are_chosen_by_family_with_clear_errors(camera):
         ups_model(sj.nominal_geometry())
     with pytest.raises(ValueError, match="singular"):
         dc.model_for(camera, sigma_arcsec=0.0)
+    # the readings' noise is named by their kind, in their unit: µm for lengths, µrad for angles
+    rotary = sj.mechanism.preset("rotary_stewart")
+    assert float(dc.model_for(camera, sigma_reading_um=2.0).reading_sigma) == pytest.approx(2e-3)
+    assert float(dc.model_for(rotary, sigma_reading_urad=2.0).reading_sigma) == pytest.approx(2e-6)
+    with pytest.raises(ValueError, match="sigma_reading_urad does not apply: a 6-UPS's readings are in mm"):
+        dc.model_for(camera, sigma_reading_urad=2.0)
+    with pytest.raises(ValueError, match="sigma_reading_um does not apply: a 6-RUS's readings are in rad"):
+        dc.model_for(rotary, sigma_reading_um=2.0)
     with pytest.raises(ValueError, match="unknown effect 'actuator_tilt' for a 6-UPS"):
         dc.simulate_hidden_effect(0, "actuator_tilt", 1.0, geometry=camera)
     assert "zero_offset" not in EFFECTS and "actuator_tilt" not in EFFECTS

@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "stewart_jax"
 
-CORE = {"_math", "_units", "_checks", "_files", "_linalg"}
+CORE = {"_math", "_units", "_checks", "_files", "_linalg", "_special", "_runtime", "_cache"}
 """The lowest layer: modules directly in ``stewart_jax/``; they import only each other."""
 
 MAY_IMPORT: dict[str, set[str]] = {
@@ -26,10 +26,12 @@ MAY_IMPORT: dict[str, set[str]] = {
     "study": CORE | {"mechanism", "optimise", "calibration"},
     "cable_robot": CORE,
     "discrepancy": CORE | {"mechanism", "optimise", "calibration", "cable_robot"},
+    "compensation": CORE | {"mechanism", "calibration"},
     "plotting": CORE,
-    "<package>": CORE | {"mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot", "plotting"},
+    "<package>": CORE | {"mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot", "plotting",
+                         "compensation"},
     "_cli": CORE | {"<package>", "mechanism", "optimise", "calibration", "study", "discrepancy", "cable_robot",
-                    "plotting"},
+                    "plotting", "compensation"},
     "__main__": {"_cli"},
 }
 """``{layer: the layers it may import}``; ``<package>`` is ``stewart_jax/__init__.py``, which
@@ -59,11 +61,17 @@ def _imports(path: Path) -> list[tuple[int, str]]:
                 module = node.module or ""
             if module.split(".")[0] != "stewart_jax":
                 continue
-            if node.module is None or module == "stewart_jax":  # from . import x: x is a module
-                found += [(node.lineno, f"{module}.{a.name}") for a in node.names]
+            if node.module is None or module == "stewart_jax":  # from . import x: x a module, or a name of it
+                found += [(node.lineno, f"{module}.{a.name}" if _is_module(module, a.name) else module)
+                          for a in node.names]
             else:
                 found.append((node.lineno, module))
     return found
+
+
+def _is_module(package: str, name: str) -> bool:
+    folder = ROOT.joinpath(*package.split("."))
+    return (folder / f"{name}.py").exists() or (folder / name / "__init__.py").exists()
 
 
 def _source_layer(path: Path) -> str:

@@ -19,7 +19,8 @@ from stewart_jax.calibration import (
     read_targets,
     summarize_control_error,
 )
-from stewart_jax.calibration._points import _problem, default_registration, start_values, tracker_whitening
+from stewart_jax.calibration._points import _problem, start_values, tracker_whitening
+from stewart_jax.calibration._points_simulation import default_registration
 from stewart_jax.mechanism import forward_kinematics, load_mechanism, preset, presets
 
 RANGE_UM, ACROSS_UM_PER_M = 5.0, 2.5

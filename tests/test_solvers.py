@@ -135,7 +135,7 @@ def test_reaches_known_optimum(name, d):
 @pytest.mark.parametrize("name", ["cs", "smcs", "vsa-smcs"])
 def test_population_evaluation_count_is_exact(name):
     solver, r = suite(name, 5)
-    n = solver.n_nests
+    n = solver.population_size
     per_gen = 2 * n + (0 if name == "cs" else 3 * solver.n_worst)
     gens = (BUDGET[5] - n) // per_gen
     assert np.all(r.n_evaluations == n + gens * per_gen)
@@ -167,7 +167,7 @@ def test_deterministic_for_a_key():
 def test_nan_objective_values_are_never_best():
     # NaN on half of the box (where the sphere's optimum lies): NaN must read as +inf.
     fn = lambda x, _: jnp.where(x[0] > 0.0, jnp.nan, jnp.sum((x - 1.0) ** 2))
-    r = eqx.filter_jit(minimise)(fn, CuckooSearch(n_nests=10), jnp.full(2, LOWER),
+    r = eqx.filter_jit(minimise)(fn, CuckooSearch(population_size=10), jnp.full(2, LOWER),
                                  jnp.full(2, UPPER), jax.random.key(0), max_evaluations=2_000)
     assert np.isfinite(float(r.cost)) and float(r.params[0]) <= 0.0
     # near the constrained optimum f = 1 at (0, 1); CS with 10 nests is slow at the NaN edge
@@ -189,7 +189,7 @@ def _max_violation_per_generation(solver, key, n_generations):
 
     def body(state, k):
         state = solver.step(fn, state, lo, hi, k)
-        viol = jnp.maximum(jnp.max(lo - state.nests), jnp.max(state.nests - hi))
+        viol = jnp.maximum(jnp.max(lo - state.population), jnp.max(state.population - hi))
         return state, jnp.maximum(viol, 0.0)
 
     state, viol = jax.lax.scan(body, state, jax.random.split(k1, n_generations))
@@ -404,7 +404,7 @@ def test_least_squares_on_a_plain_residual():
 
 def test_statuses_are_elementwise_for_a_batch():
     fn = lambda x, c: jnp.sum((x - c) ** 2) + jnp.where(c > 10.0, jnp.nan, 0.0)
-    run = jax.vmap(lambda c: minimise(fn, CuckooSearch(n_nests=5, target=1e-3), -jnp.ones(1), jnp.ones(1),
+    run = jax.vmap(lambda c: minimise(fn, CuckooSearch(population_size=5, target=1e-3), -jnp.ones(1), jnp.ones(1),
                                       jax.random.key(0), max_evaluations=2_000, args=c))
     r = run(jnp.array([0.0, 20.0]))
     np.testing.assert_array_equal(np.asarray(r.status == RESULTS.target_reached), [True, False])
@@ -412,7 +412,7 @@ def test_statuses_are_elementwise_for_a_batch():
 
 
 @pytest.mark.parametrize("bad", [
-    lambda: CuckooSearch(pa=-3), lambda: CuckooSearch(n_nests=1), lambda: SMCS(n_worst=40),
+    lambda: CuckooSearch(pa=-3), lambda: CuckooSearch(population_size=1), lambda: SMCS(n_worst=40),
     lambda: VSASMCS(p=0.5), lambda: VSASMCS(lu=1.5), lambda: CuckooSearch(alpha=0.0),
     lambda: CuckooSearch(beta=2.5), lambda: NelderMead(initial_scale=0.0),
     lambda: o.LevenbergMarquardt(max_steps=0), lambda: VSASMCS(stall_generations=0),

@@ -70,7 +70,7 @@ def test_every_subcommand_is_listed_with_its_modules_help_line():
 
 def _minimal_args(name: str) -> list[str]:
     return {"simulate": ["--out", "x.csv"], "calibrate": ["x.csv"], "diagnose": ["x.csv"],
-            "simulate-effect": ["--out", "x.csv"], "export": ["nominal"]}.get(name, [])
+            "simulate-effect": ["--out", "x.csv"], "export": ["nominal"], "lut": ["check", "x.yaml"]}.get(name, [])
 
 
 @pytest.mark.parametrize(("argv", "hint"), [
@@ -91,3 +91,19 @@ def test_a_word_far_from_every_name_gets_no_suggestion(capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["calibrate", "x.csv", "--zzzzzz"])
     assert "did you mean" not in capsys.readouterr().err
+
+
+def test_the_latency_benchmark_runs_at_a_small_size(tmp_path):
+    """``benchmarks/latency.py --quick``: the start-up commands cold and warm, with the verdict
+    on ``--help`` against a bare ``import numpy``."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "latency.py"), "--quick", "--warm-repeats", "1",
+                          "--out", str(tmp_path / "latency")], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    result = json.loads((tmp_path / "latency.json").read_text())
+    assert [r["command"] for r in result["rows"]] == ["--help", "--version", "export (json)"]
+    assert all(r["cold"]["exit"] == 0 and r["warm"]["exit"] == 0 for r in result["rows"])
+    assert [t["target"] for t in result["targets"]] == ["--help / import numpy, CPU"]
+    assert "| target |" in (tmp_path / "latency.md").read_text()

@@ -242,7 +242,8 @@ def test_geometry_file_round_trip_with_limits(tmp_path):
     )
     d = m.to_dict()
     assert d["mechanism"] == "6-UPS" and d["units"] == "mm" and d["joint_angle_limits"] == pytest.approx(3.0)
-    assert d["travel"] == pytest.approx({"x_mm": 11.4, "y_mm": 11.4, "z_mm": 13.1, "tilt_deg": 0.36, "rz_deg": 0.10})
+    assert d["travel"] == pytest.approx({"x_mm": 11.4, "y_mm": 11.4, "z_mm": 13.1, "rx_deg": 0.36, "ry_deg": 0.36,
+                                        "rz_deg": 0.10})
     path = tmp_path / "ups.json"
     sj.save_mechanism(m, path)
     back = sj.load_mechanism(path)

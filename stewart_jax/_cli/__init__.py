@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "fast": ("fast", "add_fast_parser",
              "FAST feed support: cable + Stewart coupled vibration scenario (Yin et al., Table 2)"),
     "export": ("export", "add_parser", "write a geometry as JSON or as LinuxCNC genhexkins settings"),
+    "lut": ("lut", "add_parser", "compensation look-up tables (controller YAML): apply, fit, check, diff"),
 }
 """``{subcommand: (module in stewart_jax._cli, its function that adds the parser, one line of help)}``."""
 

@@ -46,7 +46,10 @@ def tracker_sigma(args) -> tuple[float, float]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``."""
+    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``.
+
+    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the outputs,
+    read, calibrate, assess, print, write), each a few lines that read best in sequence."""
     check_outputs(args, json="--json", out_geometry="--out-geometry", report="--report")
     if args.targets is None:
         raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
@@ -58,7 +61,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         raise ValueError("a points file is calibrated by the batched Levenberg–Marquardt (--method lm-batched)")
     range_um, across = tracker_sigma(args)
 
-    from ..calibration._points import calibrate_points, implied_point_pose_errors, read_points_csv, read_targets
+    from ..calibration._points import calibrate_points, implied_point_pose_errors
+    from ..calibration._points_io import read_points_csv, read_targets
     from ._common import load_nominal
 
     targets = read_targets(args.targets)
@@ -144,13 +148,8 @@ def run_simulate(args: argparse.Namespace) -> int:
     """``stewart-jax simulate --points --targets T.json``: a points file with the tracker's noise."""
     import jax
 
-    from ..calibration._points import (
-        default_targets,
-        read_targets,
-        simulate_points,
-        write_points_csv,
-        write_targets,
-    )
+    from ..calibration._points_io import read_targets, write_points_csv, write_targets
+    from ..calibration._points_simulation import default_targets, simulate_points
     from ..calibration._simulation import plan_poses, reachable_travel
     from ..mechanism._registry import save_mechanism
     from ._common import nominal_and_true

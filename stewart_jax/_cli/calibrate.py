@@ -154,7 +154,9 @@ def _check_reachable(nominal, data, args) -> None:
     """Refuse rows the nominal geometry cannot reach, naming them (wrong units, swapped columns)."""
     import jax.numpy as jnp
 
-    sol = nominal.solve_inverse_kinematics(jnp.asarray(data.poses))
+    from ..mechanism._kinematics import solve_inverse_kinematics
+
+    sol = solve_inverse_kinematics(nominal, jnp.asarray(data.poses))
     bad = np.flatnonzero(~np.asarray(sol.reachable))
     if bad.size:
         raise ValueError(

@@ -37,7 +37,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         raise ValueError("--targets and --tracker-sigma-um are for a points file (one with a 'target' column)")
     geometry = load_mechanism(args.geometry)
     data = read_csv(args.file, reading_unit=geometry.reading_unit)
-    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, _reading_sigma(args, geometry))
+    reading = "sigma_reading_um" if geometry.reading_unit == "mm" else "sigma_reading_urad"
+    model = model_for(geometry, args.sigma_um, args.sigma_arcsec, **{reading: _reading_sigma(args, geometry)})
     report = diagnose(
         data,
         model,
@@ -68,7 +69,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 def _diagnose_points(args: argparse.Namespace, effects) -> int:
     """``diagnose POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``: the workflow on
     the tracker's points, with its noise model (:func:`~stewart_jax.discrepancy.points_model`)."""
-    from ..calibration._points import read_points_csv, read_targets
+    from ..calibration._points_io import read_points_csv, read_targets
     from ..discrepancy import diagnose, point_rows, points_model
     from ..mechanism._registry import load_mechanism
     from ._points import tracker_sigma
@@ -127,7 +128,10 @@ def _finish(args: argparse.Namespace, report, out: dict) -> int:
 
 def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     """``diagnose RECORD.csv --geometry fast``: the workflow on a record of the FAST cabin's free
-    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model)."""
+    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model).
+
+    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the options,
+    read the record, build the model, diagnose, print, write), each a few lines."""
     import numpy as np
 
     from ..discrepancy import diagnose

@@ -154,7 +154,10 @@ def _statics(args, params):
 
 
 def run_fast(args: argparse.Namespace) -> int:
-    """Handler of ``stewart-jax fast``; returns the exit status."""
+    """Handler of ``stewart-jax fast``; returns the exit status.
+
+    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the options, the
+    statics, the modes, the simulation, print, write), each a few lines."""
     import jax
     import jax.numpy as jnp
 

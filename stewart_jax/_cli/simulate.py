@@ -11,6 +11,10 @@ from ._common import check_outputs, geometry_args, noise_args, nominal_and_true
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.campaign:
+        from .lut import run_campaign
+
+        return run_campaign(args)
     if args.points:
         from ._points import run_simulate
 
@@ -77,5 +81,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="--points: probability that a platform target is seen at a pose (at least one is)")
     geometry_args(p, true=True)
     p.add_argument("--out-true", help="also write the true geometry (JSON), e.g. to check a calibration")
+    from .lut import campaign_args
+
+    campaign_args(p)
     p.set_defaults(func=run)
     return p

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -272,6 +273,7 @@ class CableStringModes(NamedTuple):
     irvine_lambda2: Float[Array, "6"]
 
 
+@eqx.filter_jit
 def cable_string_modes(
     params: FastParams, position: Float[ArrayLike, "3"], static: StaticSolution,
     R: Float[ArrayLike, "3 3"] | None = None,

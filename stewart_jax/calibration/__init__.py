@@ -46,9 +46,8 @@ from ._points import (
     PointData as PointData,
     TrackerTargets as TrackerTargets,
     calibrate_points as calibrate_points,
-    read_points_csv as read_points_csv,
-    read_targets as read_targets,
 )
+from ._points_io import read_points_csv as read_points_csv, read_targets as read_targets
 from ._problem import (
     CalibrationData as CalibrationData,
     CalibrationProblem as CalibrationProblem,

@@ -30,13 +30,15 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jax.scipy.special import gammainc, gammaincc
 from jaxtyping import Float
 
+from .._special import regularized_gamma
 from .._units import report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
+from ..mechanism._kinematics import ik_and_jacobian, solve_inverse_kinematics
 from ._identifiability import identifiability_report, pose_noise_covariance, stroke_noise_covariance
 from ._problem import CalibrationData
 
@@ -119,7 +121,7 @@ def assess_calibration(
     poses = np.asarray(data.poses)
     m, n = poses.shape[0], calibrated.n_params
     warnings: list[str] = []
-    residuals = np.asarray(data.strokes) - np.asarray(calibrated.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    residuals = np.asarray(data.strokes) - np.asarray(solve_inverse_kinematics(calibrated, jnp.asarray(poses)).strokes)
     bad = np.flatnonzero(~np.all(np.isfinite(residuals), axis=1)).tolist()
     dups = duplicate_rows(poses)
     if dups:
@@ -161,14 +163,14 @@ def assess_calibration(
             "noise explains. Likely causes: the units (poses in mm and degrees, readings in mm: angles in "
             "radians under a degree header, or a file in metres), the wrong geometry for this mechanism "
             "(--geometry), or the wrong parameter set (--param-set); the calibrated values are not to be used")
-    p = float(gammaincc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")
+    # the two tails: low = P(χ² ≤ observed), p = P(χ² ≥ observed)
+    low, p = regularized_gamma(dof / 2.0, chi2 / 2.0) if dof > 0 else (float("nan"), float("nan"))
     ratio = float(np.sqrt(chi2 / dof)) if dof > 0 else float("nan")
     if dof > 0 and p < FIT_P_VALUE:
         warnings.append(
             f"the residuals are {ratio:.3g}× what the stated noise (σ = {sigma_um} µm, {sigma_arcsec}″) explains "
             f"(χ² = {chi2:.4g} on {dof} degrees of freedom, p = {p:.2g}): wrong units (mm and degrees are "
             "expected), a wrong σ, or an effect the model lacks — run `stewart-jax diagnose` to name it")
-    low = float(gammainc(dof / 2.0, chi2 / 2.0)) if dof > 0 else float("nan")  # P(χ² ≤ observed)
     if dof > 0 and low < FIT_P_VALUE:
         warnings.append(
             f"the residuals are smaller than the stated noise allows (χ² = {chi2:.4g} on {dof} degrees of freedom, "
@@ -189,11 +191,14 @@ def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> 
     calibrated one, what remains (noise included)."""
     from .._units import error_in_report_units
 
-    poses = jnp.asarray(data.poses)
-    strokes, _, jac = mechanism.ik_and_jacobian(poses)
-    r = jnp.asarray(data.strokes) - strokes
-    dp = jnp.linalg.solve(jac, r[..., None])[..., 0]
-    return np.asarray(error_in_report_units(dp))
+    return np.asarray(error_in_report_units(_implied_pose_errors(mechanism, jnp.asarray(data.poses),
+                                                                 jnp.asarray(data.strokes))))
+
+
+@eqx.filter_jit
+def _implied_pose_errors(mechanism, poses, readings):
+    strokes, _, jac = ik_and_jacobian(mechanism, poses)
+    return jnp.linalg.solve(jac, (readings - strokes)[..., None])[..., 0]
 
 
 def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> tuple[float, float]:

@@ -29,12 +29,12 @@ residual vector and one Jacobian) for the LM methods. The hybrid takes both.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Literal
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import PRNGKeyArray
 
@@ -52,7 +52,7 @@ from ..optimise._result import OptimiseResult
 from ..optimise._simplex import NelderMead
 from ..optimise._smcs import SMCS
 from ..optimise._vsa_smcs import VSASMCS
-from ._problem import CalibrationProblem, population_objective
+from ._problem import CalibrationData, CalibrationProblem, population_objective
 
 Kind = Literal["least_squares", "box", "hybrid"]
 
@@ -63,7 +63,8 @@ class Method:
 
     - ``name``: the CLI/JSON name (``"vsa-smcs"``).
     - ``label``: the name in tables and figures (``"VSA-SMCS"``).
-    - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters.
+    - ``factory``: ``(**options) -> solver``; options are the solver's hyper-parameters (a
+      ``"least_squares"`` or ``"hybrid"`` factory takes ``max_steps``, the LM step budget).
     - ``kind``: which budget it takes, for listings and the command line's checks (it does not
       change how the method runs: every solver's ``solve`` does): ``"least_squares"`` (residual
       vector from the nominal parameters, budget ``max_steps``), ``"box"`` (cost over Ω within
@@ -152,13 +153,13 @@ def method_label(name: str) -> str:
 def make_solver(name: str, max_steps: int | None = None, **options: Any) -> AbstractOptimiser:
     """The solver object of method ``name`` with its hyper-parameters set from ``options``
     (field names of the solver class; for ``"vsa-smcs+lm"`` the fields of :class:`VSASMCS`,
-    and ``max_steps`` for its LM phase). ``max_steps`` goes to the methods that take a step
-    budget and is ignored by the others. ``epsilon`` (the paper's ``ε``) is accepted as the
-    population methods' ``target``."""
+    and ``max_steps`` for its LM phase). ``max_steps`` goes to the methods whose ``kind`` takes
+    a step budget (``"least_squares"``, ``"hybrid"``) and is ignored by the others. ``epsilon``
+    (the paper's ``ε``) is accepted as the population methods' ``target``."""
     m = method(name)
     if "epsilon" in options:
         options["target"] = options.pop("epsilon")
-    if max_steps is not None and "max_steps" in inspect.signature(m.factory).parameters:
+    if max_steps is not None and m.kind != "box":  # the kind declares the step budget
         options["max_steps"] = max_steps
     solver = m.factory(**options)
     if not isinstance(solver, AbstractOptimiser):
@@ -181,8 +182,45 @@ def _jacobian(mechanism: AbstractMechanism):
     if not mechanism.has_closed_form_parameter_jacobian:
         return None
     if mechanism.leg_parameters is not None:
-        return lambda u, problem: -problem.mechanism.with_params(u).leg_parameter_jacobian(problem.data.poses)
-    return lambda u, problem: -problem.mechanism.with_params(u).parameter_jacobian(problem.data.poses)
+        def legs(u, problem):
+            jac = -problem.mechanism.with_params(u).leg_parameter_jacobian(problem.data.poses)  # (legs, m, k)
+            return jac if problem.weights is None else jac * problem.weights[None, :, None]
+
+        return legs
+
+    def dense(u, problem):
+        jac = -problem.mechanism.with_params(u).parameter_jacobian(problem.data.poses)  # (6m, n)
+        return jac if problem.weights is None else jac * jnp.repeat(problem.weights, 6)[:, None]
+
+    return dense
+
+
+POSE_BUCKET_MIN = 8
+"""The smallest padded pose count (the paper's simulation study measures 8 poses)."""
+
+
+def pose_bucket(m: int) -> int:
+    """The pose count a least-squares calibration of ``m`` poses is compiled for: the next power
+    of two, at least :data:`POSE_BUCKET_MIN` (9 and 12 poses share the program of 16; 120 poses
+    run as 128)."""
+    return max(POSE_BUCKET_MIN, 1 << (int(m) - 1).bit_length())
+
+
+def padded(problem: CalibrationProblem) -> CalibrationProblem:
+    """``problem`` with its poses padded to :func:`pose_bucket` rows: copies of the first pose,
+    weighted 0 (their residuals, Jacobian rows and cost terms are zero, and their reachability
+    is not asked), so that the least-squares solution is the unpadded one, to rounding.
+
+    NOTE: padding is for the least-squares methods, whose compilation dominates a command's
+    time; the population methods keep the family's population layout, which has no weights."""
+    m = problem.data.n_poses
+    size = pose_bucket(m)
+    if size == m or problem.weights is not None or problem.data.poses.ndim != 2:
+        return problem
+    rows = np.concatenate([np.arange(m), np.zeros(size - m, int)])
+    data = CalibrationData(*(None if f is None else jnp.asarray(np.asarray(f)[rows]) for f in problem.data))
+    weights = jnp.asarray(np.arange(size) < m, dtype=jnp.float64)
+    return CalibrationProblem(data, problem.mechanism, problem.lower, problem.upper, problem.initial, weights)
 
 
 def _leg_blocks(problem: CalibrationProblem) -> Blocks | None:
@@ -245,7 +283,21 @@ def calibrate(
     solver's hyper-parameters (see :func:`make_solver`)."""
     solver = make_solver(method, max_steps, **options)
     key = jax.random.key(0) if key is None else key
-    return _run_one(solver, problem, key, _check_budget(max_evaluations, solver, problem))
+    budget = _check_budget(max_evaluations, solver, problem)
+    if METHOD_REGISTRY[method].kind == "least_squares":
+        problem = padded(problem)
+    if isinstance(solver, BatchedLevenbergMarquardt):
+        solver = _traced_settings(solver)
+    return _run_one(solver, problem, key, budget)
+
+
+def _traced_settings(solver: BatchedLevenbergMarquardt) -> BatchedLevenbergMarquardt:
+    """The batched LM with its step budget, tolerances and damping as arrays, so that one
+    compiled program serves every ``max_steps``, ``ftol``, ``xtol``, ``gtol`` and damping (as
+    Python numbers each value compiles its own); the same operations on the same values."""
+    names = ("max_steps", "ftol", "xtol", "gtol", "initial_damping", "min_damping")
+    values = tuple(jnp.asarray(getattr(solver, k), jnp.int32 if k == "max_steps" else jnp.float64) for k in names)
+    return eqx.tree_at(lambda s: tuple(getattr(s, k) for k in names), solver, values)
 
 
 def calibrate_batch(

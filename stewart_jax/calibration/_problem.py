@@ -56,7 +56,11 @@ class CalibrationData(NamedTuple):
     def take(self, index: ArrayLike) -> CalibrationData:
         """The rows ``index`` of every field (e.g. a train/test split)."""
         idx = np.asarray(index)
-        return CalibrationData(*(None if f is None else f[idx] for f in self))
+        if any(isinstance(f, jax.core.Tracer) for f in self):
+            return CalibrationData(*(None if f is None else f[idx] for f in self))
+        # concrete rows are copied on the host: a device gather would compile one program per
+        # field shape and index count (a dozen per discrepancy fit)
+        return CalibrationData(*(None if f is None else jnp.asarray(np.asarray(f)[idx]) for f in self))
 
 
 def make_calibration_data(
@@ -126,6 +130,10 @@ class CalibrationProblem(eqx.Module):
       ``with_params(u)`` is the model being calibrated.
     - ``lower``, ``upper``: ``Float[Array, " n"]``, the box Ω (each parameter in its unit).
     - ``initial``: ``Float[Array, " n"]``, the nominal parameters.
+    - ``weights``: ``Float[Array, " m"] | None``, 1 for a measured pose and 0 for a row that pads
+      the pose count to a size shared by several problems (``calibrate`` pads the least-squares
+      methods' problems to a few sizes, so that they share compiled programs); ``None``: every
+      row is measured.
     """
 
     data: CalibrationData
@@ -133,12 +141,19 @@ class CalibrationProblem(eqx.Module):
     lower: Float[Array, " n"]
     upper: Float[Array, " n"]
     initial: Float[Array, " n"]
+    weights: Float[Array, " m"] | None = None
 
     def residuals(self, params: Float[Array, " n"]) -> Float[Array, "6m"]:
-        return stroke_residuals(params, self.data, self.mechanism)
+        r = stroke_residuals(params, self.data, self.mechanism)
+        return r if self.weights is None else r * jnp.repeat(self.weights, 6)
 
     def cost(self, params: Float[Array, " n"]) -> Float[Array, ""]:
-        return calibration_cost(params, self.data, self.mechanism)
+        if self.weights is None:
+            return calibration_cost(params, self.data, self.mechanism)
+        sol = self.mechanism.with_params(params).solve_inverse_kinematics(self.data.poses)
+        s = jnp.sum(((self.data.strokes - sol.strokes) * self.weights[:, None]) ** 2)
+        ok = jnp.all(sol.reachable | (self.weights == 0)) & jnp.isfinite(s)
+        return jnp.where(ok, s, jnp.inf)
 
     def population_cost(self, params: Float[Array, "k n"]) -> Float[Array, " k"]:
         """``S(u)`` (eq. 9) for every row of ``params``: ``jax.vmap(self.cost)(params)`` to
@@ -146,6 +161,8 @@ class CalibrationProblem(eqx.Module):
         family's population layout
         (:meth:`~stewart_jax.mechanism.AbstractMechanism.population_squared_residuals`).
         A population optimiser that vmaps :func:`population_objective` gets it."""
+        if self.weights is not None:
+            return jax.vmap(self.cost)(params)
         sse, ok = self.mechanism.population_squared_residuals(params, self.data.poses, self.data.strokes)
         return jnp.where(ok & jnp.isfinite(sse), sse, jnp.inf)
 

@@ -25,7 +25,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float, PRNGKeyArray
 from .._math import euler_angles, rotation_matrix
 from .._units import TRAVEL_MM, TRAVEL_RAD
 from ..mechanism._abstract import AbstractMechanism
-from ..mechanism._kinematics import forward_kinematics
+from ..mechanism._kinematics import forward_kinematics, solve_inverse_kinematics
 from ._problem import ARCSEC, UM, CalibrationData
 
 PLANS = ("paper8", "plan120", "validation42")
@@ -117,7 +117,7 @@ def reachable_travel(mechanism: AbstractMechanism, *, iterations: int = 40) -> n
     unit = np.concatenate([corners, axes]) * half
 
     def ok(scale: float) -> bool:
-        return bool(np.all(np.asarray(mechanism.solve_inverse_kinematics(jnp.asarray(scale * unit)).reachable)))
+        return bool(np.all(np.asarray(solve_inverse_kinematics(mechanism, jnp.asarray(scale * unit)).reachable)))
 
     if ok(1.0):
         return half
@@ -233,7 +233,7 @@ def simulate_measurements(
     angle (our reading of the paper's "±0.1 µm, ±0.1°"). With a ``tracker`` the pose is
     instead measured through it (3 balls, rigid fit) and the two sigmas are not used.
     """
-    q = nominal.solve_inverse_kinematics(targets).strokes
+    q = solve_inverse_kinematics(nominal, targets).strokes
     fk = forward_kinematics(actual, q, targets)
     pa = fk.poses
     if tracker is None:

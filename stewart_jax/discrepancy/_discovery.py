@@ -55,7 +55,7 @@ from typing import Any, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from ._registry import Effect
+from ._registry import AbstractDiscrepancyModel, Effect
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p
 from ._subspace import SINE_TOL, basis
 
@@ -92,10 +92,10 @@ class TermSpec(NamedTuple):
     leg: int | None
 
 
-def reading_factor(model: Any) -> tuple[float, str]:
+def reading_factor(model: AbstractDiscrepancyModel) -> tuple[float, str]:
     """``(scale, unit)``: the ``reading`` factor is ``scale`` × the model's reading (library
     unit, the mechanism's ``reading_unit``), in ``unit`` (mm; degrees for a crank angle)."""
-    unit = getattr(getattr(model, "mechanism", None), "reading_unit", "mm")
+    unit = model.reading_unit
     if unit not in READING_FACTOR_UNITS:
         raise ValueError(f"the open term search has no factor unit for readings in {unit!r}")
     return READING_FACTOR_UNITS[unit]
@@ -161,17 +161,16 @@ class TermUnits(NamedTuple):
     names: tuple[str, ...] | None
 
 
-def term_units(model: Any) -> TermUnits:
-    """The :class:`TermUnits` of ``model``: a hexapod's readings in :func:`reading_factor`'s unit,
-    its residuals in its report unit, time in hours; a model may declare ``output_units``,
-    ``output_report_units``, ``time_unit``, ``output_noun`` (then its outputs are named by
-    ``output_names``)."""
+def term_units(model: AbstractDiscrepancyModel) -> TermUnits:
+    """The :class:`TermUnits` of ``model`` from its declarations (``output_units``,
+    ``output_report_units``, ``time_unit``, ``output_noun``; by default a hexapod's readings in
+    :func:`reading_factor`'s unit, its residuals in its report unit, time in hours)."""
     k = len(model.output_names)
-    noun = getattr(model, "output_noun", "actuator")
+    noun = model.output_noun
     return TermUnits(
-        tuple(getattr(model, "output_units", (reading_factor(model)[1],) * k)),
-        tuple(getattr(model, "output_report_units", (model.report_unit,) * k)),
-        getattr(model, "time_unit", "h"),
+        tuple(model.output_units or (reading_factor(model)[1],) * k),
+        tuple(model.output_report_units or (model.report_unit,) * k),
+        model.time_unit,
         noun,
         None if noun == "actuator" else tuple(model.output_names),
     )
@@ -257,12 +256,11 @@ class DiscoveredTerms(NamedTuple):
             reading = model.finish(state, data)
             return state._replace(offset=state.offset + self.offsets(theta, reading, data, scale))
 
-        apply.terms = self  # what save_fitted_model writes, so that the model file can rebuild the effect
         n = self.n_params
         return Effect(
             name="discovered", model=model.name, n_params=n, apply=apply, scale=(model.report_factor**-1,) * n,
             unit=model.report_unit, report_factor=(model.report_factor,) * n, requires=tuple(req),
-            acts_on="mechanism", doc="; ".join(describe(s, units) for s in self.specs),
+            acts_on="mechanism", doc="; ".join(describe(s, units) for s in self.specs), terms=self,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -279,7 +277,8 @@ def supports_discovery(model: Any, data: Any) -> bool:
     their state."""
     if not model.open_search:
         return False
-    return "offset" in getattr(type(model.initial_state(model.base_initial, data, False)), "_fields", ())
+    state = model.initial_state(model.base_initial, data, False)
+    return isinstance(state, tuple) and "offset" in type(state)._fields
 
 
 def _periods(x: np.ndarray) -> np.ndarray:
@@ -456,7 +455,7 @@ def challenge(
     residual's second-order misfit."""
     reading_tr = reading_tr * reading_factor(model)[0]
     k = reading_tr.shape[1]
-    fams = _library(reading_tr, train, k, getattr(model, "open_search_periodic", ("reading",)))
+    fams = _library(reading_tr, train, k, model.open_search_periodic)
     n_tr = white_tr.size
     q_g = basis(jac_base)
     r0 = white_tr - q_g @ (q_g.T @ white_tr)
@@ -517,7 +516,7 @@ def discover(
     reading_tr, reading_te = reading_tr * scale, reading_te * scale
     k = reading_tr.shape[1]
     n_tr, n_te = white_tr.size, white_te.size
-    fams = _library(reading_tr, train, k, getattr(model, "open_search_periodic", ("reading",)))
+    fams = _library(reading_tr, train, k, model.open_search_periodic)
     n_groups = sum(len(f) for f in fams)
     level = alpha / max(n_groups, 1)
     chosen: list[TermSpec] = []

@@ -22,8 +22,9 @@
 4. **Show.** Held-out residual RMS before/after against the noise floor, derived errors
    (6-PSS: pose errors) before/after, the "where" analysis after the fix.
 
-The statistics are in ``_statistics.py``, the subspace algebra in ``_subspace.py``, the fits in
-``_fits.py``, the result types in ``_report.py``.
+The tests on one data set (detect, name) are in ``_naming.py``, the statistics in
+``_statistics.py``, the subspace algebra in ``_subspace.py``, the fits in ``_fits.py``, the result
+types in ``_report.py``.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -40,12 +41,12 @@ import numpy as np
 
 from ._discovery import challenge, describe, supports_discovery, term_units
 from ._equivalence import equivalences, separated_by
-from ._errors_in_variables import heldout_corrections
-from ._fits import BatchFits, effect_slices, fit_candidates, fit_pairs, unpack
+from ._fits import effect_slices, fit_candidates, fit_pairs, unpack
+from ._naming import DataSet, Decision, decide, pair_tests
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
-from ._statistics import bic, heldout_chi2, heldout_p, nested_p, noise_scale2, where_analysis
-from ._subspace import absorbing_params, absorption, base_param_names, basis, n_identifiable, prediction_factor, rank
+from ._statistics import where_analysis
+from ._subspace import absorbing_params, base_param_names, prediction_factor
 from ._term_ensemble import TermInputs, earn_place
 
 
@@ -151,40 +152,6 @@ def diagnose(
                          discover=discover, temperature_std_k=temperature_std_k)[0]
 
 
-@dataclasses.dataclass(frozen=True)
-class _Decision:
-    """Detection and naming on one data set, before the report is assembled.
-
-    - ``cands``: per candidate (the order of ``effects``) its :class:`Candidate`.
-    - ``significant``: indices of the significant candidates.
-    - ``named_index``: index of the named candidate (``None``: none).
-    - ``detected``, ``p_detect``, ``t0``: the held-out test of the base model (χ² ``t0``).
-    - ``dof0``: residual dof of the base fit; ``rank_g``: rank of its whitened Jacobian.
-    - ``scale2``: noise variance relative to the model's σ² (1 when σ is trusted).
-    - ``level``: Bonferroni level of the candidates' tests.
-    - ``chi2``: ``(K+1,)`` training χ² of the base fit and the single-candidate fits.
-    - ``n_tr``, ``n_te``: whitened training / held-out residuals.
-    - ``pairs``: index ``c`` → training χ² of named + ``c`` fitted together.
-    - ``outcome``: index ``c`` → (p of "c explains named ∪ c", p of "named explains named ∪ c").
-    """
-
-    cands: tuple[Candidate, ...]
-    significant: tuple[int, ...]
-    named_index: int | None
-    detected: bool
-    p_detect: float
-    t0: float
-    dof0: int
-    rank_g: int
-    scale2: float
-    level: float
-    chi2: np.ndarray
-    n_tr: int
-    n_te: int
-    pairs: dict[int, float] = dataclasses.field(default_factory=dict)
-    outcome: dict[int, tuple[float, float]] = dataclasses.field(default_factory=dict)
-
-
 def _stack(items):
     return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *items)
 
@@ -222,8 +189,9 @@ def diagnose_many(
     slices = effect_slices(model, effects)
     known = not estimate_noise
 
-    decisions = [_decide(b, fits, effects, slices, nb, alpha, known, model, tests[b], temperature_std_k)
-                 for b in range(len(trains))]
+    sets = [DataSet(b, fits, model, effects, slices, nb, alpha, known, trains[b], tests[b], temperature_std_k)
+            for b in range(len(trains))]
+    decisions = [decide(ds) for ds in sets]
     # NOTE: the named candidate is compared with every other significant one by fitting both
     # together (encompassing tests). If the named one is rejected against the pair while the
     # other is not, the other explains everything the named one does and more: it is named
@@ -244,7 +212,7 @@ def diagnose_many(
         for b in pending:
             dec = decisions[b]
             dec = dataclasses.replace(dec, pairs={c: float(chi2_pairs[b, j]) for bb, j, c in jobs if bb == b})
-            outcome = _pair_tests(dec, np.asarray(fits.jac_tr[b]), slices, nb, known)
+            outcome = pair_tests(dec, np.asarray(fits.jac_tr[b]), slices, nb, known)
             dominating = [
                 c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level and dec.cands[c].explains
             ]
@@ -258,142 +226,40 @@ def diagnose_many(
             decisions[b] = dec
         pending = again
 
-    return [
-        _finish(b, decisions[b], fits, effects, nb, alpha, known, model, trains[b], tests[b], list(skipped or []),
-                discover)
-        for b in range(len(trains))
-    ]
+    return [_finish(ds, dec, list(skipped or []), discover) for ds, dec in zip(sets, decisions, strict=True)]
 
 
-def _decide(
-    b: int,
-    fits: BatchFits,
-    effects: tuple[Effect, ...],
-    slices: list[np.ndarray],
-    nb: int,
-    alpha: float,
-    known: bool,
-    model: AbstractDiscrepancyModel,
-    test: Any,
-    temperature_std_k: float,
-) -> _Decision:
-    k = len(effects)
-    chi2 = np.asarray(fits.chi2[b], dtype=float)
-    jac_tr = np.asarray(fits.jac_tr[b])
-    jac_te = np.asarray(fits.jac_te[b])
-    n_tr, n_te = jac_tr.shape[0], jac_te.shape[0]
-    g_cols = np.arange(nb)
-    rank_g = rank(jac_tr[:, g_cols])
-    q_g = basis(jac_tr[:, g_cols])
-    dof0 = n_tr - rank_g
-    w_te = np.asarray(fits.w_te[b])
-    raw_te = np.asarray(fits.raw_te[b])
-    white_te = np.einsum("mij,qmj->qmi", w_te, raw_te).reshape(k + 1, -1)
-    scale2 = noise_scale2(chi2[0], dof0, known)
-
-    t0 = heldout_chi2(white_te[0], jac_tr[:, g_cols], jac_te[:, g_cols])
-    p_detect = heldout_p(t0, n_te, dof0, scale2, known)
-
-    eiv = heldout_corrections(model, effects, np.asarray(fits.z[b]), w_te, white_te, test, temperature_std_k, scale2)
-    bic0 = bic(chi2[0], rank_g, n_tr, known)
-    partial = []
-    for i, e in enumerate(effects):
-        cols = np.concatenate([g_cols, slices[i]])
-        ab = absorption(jac_tr[:, g_cols], jac_tr[:, slices[i]], q_g)
-        df = ab.identifiable_rank
-        dof_c = n_tr - rank_g - df
-        p = nested_p(chi2[0], chi2[i + 1], df, dof_c, known)
-        bic_c = bic(chi2[i + 1], rank_g + df, n_tr, known)
-        t = heldout_chi2(white_te[i + 1], jac_tr[:, cols], jac_te[:, cols]) - eiv[i]
-        theta = np.asarray(fits.z[b, i + 1])[slices[i]] * np.asarray(e.scale) * np.asarray(e.report_factor)
-        partial.append(
-            dict(
-                effect=e.name,
-                score=float(bic0 - bic_c),
-                bic=float(bic_c),
-                delta_chi2=float(chi2[0] - chi2[i + 1]),
-                dof=int(df),
-                p_value=float(p),
-                heldout_chi2=float(t),
-                heldout_p=float(heldout_p(t, n_te, dof0, scale2, known)),
-                heldout_rms=float(np.sqrt(np.mean(raw_te[i + 1] ** 2)) * model.report_factor),
-                absorbed_fraction=ab.absorbed_fraction,
-                identifiable_rank=df,
-                sines=ab.sines,
-                converged=bool(fits.ok[b, i + 1]),
-                params=theta.tolist(),
-                unit=e.unit,
-            )
-        )
-    testable = [i for i, c in enumerate(partial) if c["identifiable_rank"] > 0]
-    level = alpha / max(len(testable), 1)
-    significant = tuple(i for i in testable if partial[i]["p_value"] < level)
-    cands = tuple(
-        Candidate(significant=i in significant, explains=i in significant and c["heldout_p"] >= alpha, **c)
-        for i, c in enumerate(partial)
-    )
-    detected = bool(p_detect < alpha)
-    explaining = [i for i in significant if cands[i].explains]
-    named = max(explaining, key=lambda i: cands[i].score) if (detected and explaining) else None
-    return _Decision(
-        cands=cands,
-        significant=significant,
-        named_index=named,
-        detected=detected,
-        p_detect=p_detect,
-        t0=t0,
-        dof0=dof0,
-        rank_g=rank_g,
-        scale2=scale2,
-        level=level,
-        chi2=chi2,
-        n_tr=n_tr,
-        n_te=n_te,
-    )
+def _fitted(ds: DataSet, i: int | None) -> FittedModel:
+    """The base fit (``i`` ``None``) or the fit of base + candidate ``i`` of data set ``ds``."""
+    mask = np.zeros(len(ds.effects))
+    effs = ()
+    if i is not None:
+        mask[i] = 1.0
+        effs = (ds.effects[i],)
+    z = np.asarray(ds.fits.z[ds.b])
+    base, thetas = unpack(ds.model, ds.effects, jnp.asarray(z[0 if i is None else i + 1]), jnp.asarray(mask))
+    return FittedModel(ds.model, effs, base, tuple(thetas[j] for j in range(len(ds.effects)) if mask[j]))
 
 
-def _pair_tests(
-    dec: _Decision, jac_tr: np.ndarray, slices: list[np.ndarray], nb: int, known: bool
-) -> dict[int, tuple[float, float]]:
-    """For the named candidate ``a`` and each other ``c`` fitted together with it: p-values of
-    "c explains all that a ∪ c does" and "a explains all that a ∪ c does" (the degrees of
-    freedom are the directions of the one not spanned by the base and the other)."""
-    a, chi2, n_tr = dec.named_index, dec.chi2, dec.n_tr
-    g = jac_tr[:, :nb]
-    q_ga = basis(np.concatenate([g, jac_tr[:, slices[a]]], axis=1))
-    out = {}
-    for c, chi2_ac in dec.pairs.items():
-        q_gc = basis(np.concatenate([g, jac_tr[:, slices[c]]], axis=1))
-        df_c = n_identifiable(q_gc, jac_tr[:, slices[a]])
-        df_a = n_identifiable(q_ga, jac_tr[:, slices[c]])
-        dof_ac = n_tr - q_ga.shape[1] - df_a
-        out[c] = (
-            nested_p(chi2[c + 1], chi2_ac, df_c, dof_ac, known),
-            nested_p(chi2[a + 1], chi2_ac, df_a, dof_ac, known),
-        )
-    return out
+class _Naming(NamedTuple):
+    """The name that stands after the pair tests and the open search's challenge: the named
+    candidate's index (``None``: none), the candidates indistinguishable from it and those that
+    add to it, the candidates (a contested one no longer explains) and the notes on why."""
+
+    named: int | None
+    indistinguishable: list[str]
+    additional: list[str]
+    cands: tuple[Candidate, ...]
+    notes: list[str]
+    demoted: int | None = None
+    equivalences: list[dict[str, Any]] = []
 
 
-def _finish(
-    b: int,
-    dec: _Decision,
-    fits: BatchFits,
-    effects: tuple[Effect, ...],
-    nb: int,
-    alpha: float,
-    known: bool,
-    model: AbstractDiscrepancyModel,
-    train: Any,
-    test: Any,
-    skipped: list[SkippedEffect],
-    discover: bool,
-) -> DiagnosisReport:
-    cands, chi2, rank_g = dec.cands, dec.chi2, dec.rank_g
-    slices = effect_slices(model, effects)
-    jac_tr = np.asarray(fits.jac_tr[b])
-    z = np.asarray(fits.z[b])
-    a = dec.named_index
-    indist, additional = [], []
+def _settle_name(ds: DataSet, dec: Decision, discover: bool) -> _Naming:
+    """The pair tests' verdicts on the named candidate, then the open search's challenge to it."""
+    effects, model = ds.effects, ds.model
+    a, cands = dec.named_index, dec.cands
+    indist, additional, notes = [], [], []
     # NOTE: "c explains all that a ∪ c does" is tested against every other significant candidate
     # at once; a wrong rejection turns "indistinguishable" into a confident wrong name, so it is
     # rejected at the candidates' Bonferroni level, not at alpha (measured: a hidden instrument
@@ -403,146 +269,186 @@ def _finish(
             indist.append(effects[c].name)
         elif p_a < dec.level:
             additional.append(effects[c].name)
-
-    none = np.zeros(len(effects))
-
-    def fitted(i):
-        mask = none.copy()
-        effs = ()
-        if i is not None:
-            mask[i] = 1.0
-            effs = (effects[i],)
-        base, thetas = unpack(model, effects, jnp.asarray(z[0 if i is None else i + 1]), jnp.asarray(mask))
-        return FittedModel(model, effs, base, tuple(thetas[j] for j in range(len(effects)) if mask[j]))
-
-    notes = []
-    w_tr = np.asarray(fits.w_tr[b])
     # NOTE: the challenge compares the named candidate's *linearised* columns at the base fit with
     # the open terms'. A model whose effects need an effect grid of starting points (the cabin
     # record: a frequency change over a long record) is far from linear there, so its candidates
     # are not contested: their own (nonlinear) fits passed the held-out test.
-    if a is not None and discover and supports_discovery(model, train) and model.effect_grid(effects) is None:
-        # NOTE: terms of a reading are evaluated at the base fit's predicted reading, not the
-        # measured one: the difference is the residual itself, which a term would then fit.
-        raw_tr0 = np.asarray(_raw_base_residual(model, fitted(None).base, train))
-        order = [a] + sorted((i for i in dec.significant if i != a and cands[i].explains),
-                             key=lambda i: -cands[i].score)
-        named = None
-        for i in order:
-            contest = challenge(
-                model=model, train=train, reading_tr=np.asarray(model.observed(train)) - raw_tr0,
-                white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
-                jac_base=jac_tr[:, :nb], jac_effect=jac_tr[:, slices[i]], dof0=dec.dof0, known=known, alpha=alpha,
-            )
-            if contest is None:
-                named = i
-                break
-            how, spec = contest
-            why = ("explains significantly more on top of it" if how == "adds"
-                   else "fits better by the information criterion and it adds nothing on top of it")
-            notes.append(f"{effects[i].name} passes the held-out test but is not named: an open term, "
-                         f"{describe(spec, term_units(model))}, {why}")
-            cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
-        if named != a:  # the pair tests were against the contested one
-            a, indist, additional = named, [], []
-    demoted, equiv = None, []
-    if a is not None and additional:
+    if a is None or not discover or not supports_discovery(model, ds.train) or model.effect_grid(effects) is not None:
+        return _one_cause(ds, dec, _Naming(a, indist, additional, cands, notes))
+    jac_tr, w_tr = np.asarray(ds.fits.jac_tr[ds.b]), np.asarray(ds.fits.w_tr[ds.b])
+    # NOTE: terms of a reading are evaluated at the base fit's predicted reading, not the
+    # measured one: the difference is the residual itself, which a term would then fit.
+    raw_tr0 = np.asarray(_raw_base_residual(model, _fitted(ds, None).base, ds.train))
+    order = [a] + sorted((i for i in dec.significant if i != a and cands[i].explains), key=lambda i: -cands[i].score)
+    named = None
+    for i in order:
+        contest = challenge(
+            model=model, train=ds.train, reading_tr=np.asarray(model.observed(ds.train)) - raw_tr0,
+            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr0).reshape(-1), w_tr=w_tr,
+            jac_base=jac_tr[:, :ds.nb], jac_effect=jac_tr[:, ds.slices[i]], dof0=dec.dof0, known=ds.known,
+            alpha=ds.alpha,
+        )
+        if contest is None:
+            named = i
+            break
+        how, spec = contest
+        why = ("explains significantly more on top of it" if how == "adds"
+               else "fits better by the information criterion and it adds nothing on top of it")
+        notes.append(f"{effects[i].name} passes the held-out test but is not named: an open term, "
+                     f"{describe(spec, term_units(model))}, {why}")
+        cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
+    if named != a:  # the pair tests were against the contested one
+        return _Naming(named, [], [], cands, notes)
+    return _one_cause(ds, dec, _Naming(a, indist, additional, cands, notes))
+
+
+def _one_cause(ds: DataSet, dec: Decision, name: _Naming) -> _Naming:
+    """One name only when nothing else explains as well: a name that needs further effects is
+    partial (``demoted``); a candidate that reproduces the named one's signature within the noise
+    and passes the held-out test joins ``indistinguishable`` (``_equivalence.py``)."""
+    a, effects = name.named, ds.effects
+    if a is not None and name.additional:
         # NOTE: a name whose fit needs further effects to close the gap is one part of the
         # cause, not the cause: a near-equivalent outside effect fitted by the nearest
         # registered one leaves exactly this (and more noise hides the rest of the gap).
-        notes.append(f"{effects[a].name} passes the held-out test, but {', '.join(additional)} explain(s) "
-                     f"significantly more on top of it: a partial explanation, no single cause is named")
-        demoted, a, indist = a, None, []
-    if a is not None:
-        others = [i for i, c in enumerate(cands) if i != a and c.identifiable_rank > 0]
-        equiv = equivalences(a, others, [e.name for e in effects], jac_tr, nb, slices, z, dec.level, dec.scale2)
-        by_name = {c.effect: c for c in cands}
-        indist += [r["effect"] for r in equiv if r["named_outside_reproduced"] and r["effect"] not in indist
-                   and by_name[r["effect"]].heldout_p >= alpha]
-    base_fm, aug_fm = fitted(None), fitted(a)
-    raw_te = np.asarray(fits.raw_te[b])
-    rf = model.report_factor
-    before = raw_te[0] * rf
-    after = raw_te[0 if a is None else a + 1] * rf
-    res_after_lib = raw_te[0 if a is None else a + 1]
-    w_te = np.asarray(fits.w_te[b])
+        note = (f"{effects[a].name} passes the held-out test, but {', '.join(name.additional)} explain(s) "
+                f"significantly more on top of it: a partial explanation, no single cause is named")
+        return name._replace(named=None, indistinguishable=[], notes=[*name.notes, note], demoted=a)
+    if a is None:
+        return name
+    others = [i for i, c in enumerate(name.cands) if i != a and c.identifiable_rank > 0]
+    equiv = equivalences(a, others, [e.name for e in effects], np.asarray(ds.fits.jac_tr[ds.b]), ds.nb, ds.slices,
+                         np.asarray(ds.fits.z[ds.b]), dec.level, dec.scale2)
+    by_name = {c.effect: c for c in name.cands}
+    indist = list(name.indistinguishable) + [
+        r["effect"] for r in equiv if r["named_outside_reproduced"] and r["effect"] not in name.indistinguishable
+        and by_name[r["effect"]].heldout_p >= ds.alpha]
+    return name._replace(indistinguishable=indist, equivalences=equiv)
+
+
+def _noise_floors(ds: DataSet, scale2: float) -> tuple[float, float]:
+    """The held-out residuals' noise floor (report units): the noise alone, and the noise plus
+    the base fit's prediction error at the held-out rows (``noise_floor_predictive``)."""
+    rf = ds.model.report_factor
+    w_te = np.asarray(ds.fits.w_te[ds.b])
+    raw_te = np.asarray(ds.fits.raw_te[ds.b])
+    jac_tr, jac_te = np.asarray(ds.fits.jac_tr[ds.b]), np.asarray(ds.fits.jac_te[ds.b])
     cov = np.einsum("mij,mkj->mik", *(2 * [np.linalg.inv(w_te)]))
-    floor = float(np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2))) * rf * math.sqrt(dec.scale2))
+    floor = float(np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2))) * rf * math.sqrt(scale2))
     lw = np.linalg.inv(w_te)
     n_te_rows, kk = raw_te.shape[1], raw_te.shape[2]
-    pred = prediction_factor(jac_tr[:, :nb], np.asarray(fits.jac_te[b])[:, :nb]).reshape(n_te_rows, kk, -1)
+    pred = prediction_factor(jac_tr[:, :ds.nb], jac_te[:, :ds.nb]).reshape(n_te_rows, kk, -1)
     pred_raw = np.einsum("mij,mjn->min", lw, pred)
     extra = np.sum(pred_raw**2) / (n_te_rows * kk)
-    floor_pred = float(
-        np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2)) + extra) * rf * math.sqrt(dec.scale2)
-    )
+    floor_pred = float(np.sqrt(np.mean(np.diagonal(cov, axis1=1, axis2=2)) + extra) * rf * math.sqrt(scale2))
+    return floor, floor_pred
 
-    def rms_dict(fm, res):
-        d = model.derived_errors(fm.base, test, res)
-        return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
 
-    factors = model.factors(test)
+class _Discovered(NamedTuple):
+    """The open search on one data set: the discovered terms' report rows, and, where they pass
+    the held-out test, the augmented fit and its held-out residuals (library units)."""
+
+    discovered: list[dict[str, Any]]
+    fitted: FittedModel | None
+    residuals_te: np.ndarray | None
+
+
+def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovered:
+    """The open term search on the base fit's residuals, when no candidate is named."""
+    model, b, fits = ds.model, ds.b, ds.fits
+    w_tr, w_te, raw_te = np.asarray(fits.w_tr[b]), np.asarray(fits.w_te[b]), np.asarray(fits.raw_te[b])
+    raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, ds.train))
+    gap_before = float(np.sqrt(np.mean(raw_te[0] ** 2)) * model.report_factor)
+    terms, discovered, term_fit, passed = earn_place(TermInputs(
+        model=model, train=ds.train, test=ds.test,
+        reading_tr=np.asarray(model.observed(ds.train)) - raw_tr,
+        reading_te=np.asarray(model.observed(ds.test)) - raw_te[0],
+        white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
+        white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
+        raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=np.asarray(fits.jac_tr[b])[:, :ds.nb],
+        jac_te=np.asarray(fits.jac_te[b])[:, :ds.nb], dof0=dec.dof0, scale2=dec.scale2, known=ds.known,
+        alpha=ds.alpha,
+    ), gap_before)
+    delta, coef = term_fit.delta, term_fit.coef
+    if not passed:
+        return _Discovered(discovered, None, None)
+    fm = FittedModel(model, (terms.effect(model),), base_fm.base + model.base_scale * jnp.asarray(delta),
+                     (jnp.asarray(coef),))
+    return _Discovered(discovered, fm, np.asarray(model.observed(ds.test) - fm.predict(ds.test)))
+
+
+def _absorbed_by(ds: DataSet, cands: tuple[Candidate, ...]) -> dict[str, list[str]]:
+    """Per candidate the base parameters absorb completely, the parameters that absorb it."""
+    jac_tr, names = np.asarray(ds.fits.jac_tr[ds.b]), base_param_names(ds.model)
+    return {
+        ds.effects[i].name: absorbing_params(jac_tr[:, :ds.nb], jac_tr[:, ds.slices[i]], names)
+        for i, c in enumerate(cands)
+        if c.identifiable_rank == 0
+    }
+
+
+def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: bool) -> DiagnosisReport:
+    """Show: the report of one data set — the name that stands, the gap before and after against
+    the noise floors, each candidate's share of the gap, the open search where nothing is named,
+    the derived errors and the "where" analysis.
+
+    NOTE: over 80 lines: most are the report's fields, one per line."""
+    model, rf, known = ds.model, ds.model.report_factor, ds.known
+    name = _settle_name(ds, dec, discover)
+    a, notes = name.named, list(name.notes)
+    base_fm, aug_fm = _fitted(ds, None), _fitted(ds, a)
+    raw_te = np.asarray(ds.fits.raw_te[ds.b])
+    before = raw_te[0] * rf
+    res_after_lib = raw_te[0 if a is None else a + 1]
+    after = res_after_lib * rf
+    floor, floor_pred = _noise_floors(ds, dec.scale2)
     gap_before = float(np.sqrt(np.mean(before**2)))
     excess = gap_before**2 - floor_pred**2
     cands = tuple(
         dataclasses.replace(c, gap_share=float((gap_before**2 - c.heldout_rms**2) / excess) if excess > 0 else 0.0)
-        for c in cands
+        for c in name.cands
     )
-    ranking = sorted(cands, key=lambda c: (c.identifiable_rank > 0, c.score), reverse=True)
-    absorbed = [c.effect for c in cands if c.identifiable_rank == 0]
-    names = base_param_names(model)
-    absorbed_by = {
-        effects[i].name: absorbing_params(jac_tr[:, :nb], jac_tr[:, slices[i]], names)
-        for i, c in enumerate(cands)
-        if c.identifiable_rank == 0
-    }
+    demoted = None if name.demoted is None else ds.effects[name.demoted].name
     partial = [
         {"effect": c.effect, "gap_share": c.gap_share, "heldout_rms": c.heldout_rms, "heldout_p": c.heldout_p}
-        | ({"needs": list(additional)} if demoted is not None and c.effect == effects[demoted].name else {})
+        | ({"needs": list(name.additional)} if c.effect == demoted else {})
         for c in sorted(cands, key=lambda c: -c.gap_share)
-        if dec.detected and a is None and c.significant
-        and (not c.explains or (demoted is not None and c.effect == effects[demoted].name))
+        if dec.detected and a is None and c.significant and (not c.explains or c.effect == demoted)
     ]
-    discovered, explained = [], a is not None
-    if dec.detected and a is None and discover and supports_discovery(model, train):
-        raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, train))
-        terms, discovered, term_fit, passed = earn_place(TermInputs(
-            model=model, train=train, test=test,
-            reading_tr=np.asarray(model.observed(train)) - raw_tr,
-            reading_te=np.asarray(model.observed(test)) - raw_te[0],
-            white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
-            white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
-            raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=jac_tr[:, :nb],
-            jac_te=np.asarray(fits.jac_te[b])[:, :nb], dof0=dec.dof0, scale2=dec.scale2, known=known, alpha=alpha,
-        ), gap_before)
-        delta, coef = term_fit.delta, term_fit.coef
-        if passed:
-            explained = True
-            aug_fm = FittedModel(model, (terms.effect(model),), base_fm.base + model.base_scale * jnp.asarray(delta),
-                                 (jnp.asarray(coef),))
-            after = np.asarray(model.observed(test) - aug_fm.predict(test)) * rf
+    found = _Discovered([], None, None)
+    if dec.detected and a is None and discover and supports_discovery(model, ds.train):
+        found = _open_search(ds, dec, base_fm)
+        if found.fitted is not None:
+            aug_fm, after = found.fitted, found.residuals_te * rf
             res_after_lib = after / rf
-    if not bool(fits.base_ok[b]):
+    if not bool(ds.fits.base_ok[ds.b]):
         notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
-    if rank_g < nb:
-        notes.append(f"the data determine only {rank_g} of the {nb} base parameter directions")
+    if dec.rank_g < ds.nb:
+        notes.append(f"the data determine only {dec.rank_g} of the {ds.nb} base parameter directions")
+
+    def rms_dict(fm, res):
+        d = model.derived_errors(fm.base, ds.test, res)
+        return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
+
+    factors = model.factors(ds.test)
     return DiagnosisReport(
         model=model.name,
         detected=bool(dec.detected),
         detect_statistic=float(dec.t0),
         detect_dof=float(dec.n_te),
         detect_p_value=float(dec.p_detect),
-        named_effect=None if a is None else effects[a].name,
-        explained=explained,
-        discovered=discovered,
+        named_effect=None if a is None else ds.effects[a].name,
+        explained=a is not None or found.fitted is not None,
+        discovered=found.discovered,
         partial=partial,
-        absorbed_by=absorbed_by,
-        indistinguishable_from=indist,
-        equivalences=equiv,
-        separated_by={n: separated_by(n) for n in ([effects[a].name, *indist] if a is not None and indist else [])},
-        additional_effects=additional,
-        ranking=ranking,
-        absorbed=absorbed,
+        absorbed_by=_absorbed_by(ds, cands),
+        indistinguishable_from=name.indistinguishable,
+        equivalences=name.equivalences,
+        separated_by={n: separated_by(n) for n in ([ds.effects[a].name, *name.indistinguishable]
+                                                   if a is not None and name.indistinguishable else [])},
+        additional_effects=name.additional,
+        ranking=sorted(cands, key=lambda c: (c.identifiable_rank > 0, c.score), reverse=True),
+        absorbed=[c.effect for c in cands if c.identifiable_rank == 0],
         skipped=list(skipped),
         gap_before=gap_before,
         gap_after=float(np.sqrt(np.mean(after**2))),
@@ -550,15 +456,15 @@ def _finish(
         noise_floor_predictive=floor_pred,
         derived_before=rms_dict(base_fm, raw_te[0]),
         derived_after=rms_dict(aug_fm, res_after_lib),
-        where_before=where_analysis(before, factors, model.output_names, alpha),
-        where_after=where_analysis(after, factors, model.output_names, alpha),
-        base_chi2=float(chi2[0]),
+        where_before=where_analysis(before, factors, model.output_names, ds.alpha),
+        where_after=where_analysis(after, factors, model.output_names, ds.alpha),
+        base_chi2=float(dec.chi2[0]),
         base_dof=int(dec.dof0),
         noise_estimated=not known,
         noise_scale=float(math.sqrt(dec.scale2)),
-        alpha=alpha,
-        n_train=model.n_rows(train),
-        n_test=model.n_rows(test),
+        alpha=ds.alpha,
+        n_train=model.n_rows(ds.train),
+        n_test=model.n_rows(ds.test),
         fitted=aug_fm,
         base_fitted=base_fm,
         residuals_before=before,

@@ -2,16 +2,18 @@
 
 Each mechanism family with a discrepancy model registers it once::
 
-    register_model_family("6-UPS", "6-ups", ups_model, lambda model, base: model.mechanism.with_params(base))
+    register_model_family("6-UPS", "6-ups", ups_model)
 
 with the family's name (``mechanism.family``), the model's name (the key its effects are
-registered under), the factory ``(mechanism, sigma_um, sigma_arcsec, sigma_stroke_um) -> model``
-and ``(model, base) -> mechanism``, the mechanism whose calibration parameters are ``base``.
+registered under), the factory ``(mechanism, sigma_um, sigma_arcsec, sigma_reading) -> model``
+(the reading noise in µm for a linear family, µrad for a rotary one) and, optionally,
+``(model, base) -> mechanism``, the mechanism whose calibration parameters are ``base`` (default:
+the model's ``mechanism`` with its parameters replaced).
 :func:`model_for` then builds the model of any registered family, and the hidden-effect
 simulator, the command line and :func:`save_fitted_model`/:func:`load_fitted_model` dispatch
 through it. The 6-PSS model (Wang et al. 2018, "Improved cuckoo calibration method of space
-telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)) and the
-6-UPS strut model register themselves here.
+telescope secondary mirror adjusting mechanism", Infrared and Laser Engineering 47(5)), the
+6-UPS strut model and the 6-RUS rotary model register themselves here.
 
 Every model registered here has the pose-noise fields ``sigma_mm`` and ``sigma_rad`` (mm, rad)
 and a reading noise ``reading_sigma`` (the reading's unit), which the model file records
@@ -47,14 +49,20 @@ class ModelFamily(NamedTuple):
 _FAMILIES: dict[str, ModelFamily] = {}
 
 
+def _with_base(model: Any, base: Float[Array, " p"]) -> AbstractMechanism:
+    return model.mechanism.with_params(base)
+
+
 def register_model_family(
     family: str,
     model_name: str,
     factory: Callable[[AbstractMechanism, float, float, float], AbstractDiscrepancyModel],
-    mechanism: Callable[[AbstractDiscrepancyModel, Float[Array, " p"]], AbstractMechanism],
+    mechanism: Callable[[AbstractDiscrepancyModel, Float[Array, " p"]], AbstractMechanism] | None = None,
 ) -> ModelFamily:
-    """Register the discrepancy model of mechanism family ``family`` (re-registering replaces)."""
-    entry = ModelFamily(family, model_name, factory, mechanism)
+    """Register the discrepancy model of mechanism family ``family`` (re-registering replaces).
+    ``mechanism(model, base)``: the mechanism of fitted base parameters ``base``; default the
+    model's own ``mechanism`` with its parameters replaced (every ``AbstractMechanismModel``)."""
+    entry = ModelFamily(family, model_name, factory, _with_base if mechanism is None else mechanism)
     _FAMILIES[family] = entry
     return entry
 
@@ -87,15 +95,23 @@ def model_name_for(family: str) -> str:
     return _entry_for_family(family).model_name
 
 
-def check_noise(sigma_um: float, sigma_arcsec: float, sigma_stroke_um: float,
-                reading_name: str = "sigma_stroke_um") -> None:
+def check_family(mechanism: Any, cls: type[AbstractMechanism], factory: str) -> None:
+    """A clear error unless ``mechanism`` is a ``cls`` (the family the model ``factory`` builds)."""
+    if not isinstance(mechanism, cls):
+        got = mechanism.family if isinstance(mechanism, AbstractMechanism) else type(mechanism).__name__
+        raise ValueError(f"{factory} needs a {cls.family} mechanism, got a {got}; model_for(mechanism) picks the "
+                         "model of its family")
+
+
+def check_noise(sigma_um: float, sigma_arcsec: float, sigma_reading: float,
+                reading_name: str = "sigma_reading_um") -> None:
     """Clear errors for a noise model the whitener cannot invert: every σ finite and ≥ 0, and
     both pose σ > 0 unless the readings have noise of their own (``reading_name``: how the
-    reading noise is called, with its unit: ``sigma_stroke_um``, ``sigma_reading_urad``)."""
-    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), (reading_name, sigma_stroke_um)):
+    reading noise is called, with its unit: ``sigma_reading_um``, ``sigma_reading_urad``)."""
+    for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec), (reading_name, sigma_reading)):
         if not (np.isfinite(s) and s >= 0):
             raise ValueError(f"{name} must be a finite number ≥ 0, got {s}")
-    if sigma_stroke_um == 0 and (sigma_um == 0 or sigma_arcsec == 0):
+    if sigma_reading == 0 and (sigma_um == 0 or sigma_arcsec == 0):
         raise ValueError(
             "the reading-residual covariance J·Σ·Jᵀ is singular unless both pose sigmas are > 0 "
             f"(got sigma_um={sigma_um}, sigma_arcsec={sigma_arcsec}); give both, or {reading_name} > 0"
@@ -103,14 +119,22 @@ def check_noise(sigma_um: float, sigma_arcsec: float, sigma_stroke_um: float,
 
 
 def model_for(
-    mechanism: AbstractMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
+    mechanism: AbstractMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, *,
+    sigma_reading_um: float = 0.0, sigma_reading_urad: float = 0.0,
 ) -> AbstractDiscrepancyModel:
     """The discrepancy model of ``mechanism``'s family, starting from ``mechanism``, with pose noise
-    σ (µm, ″) and reading noise σ (in the readings' report unit: µm for a linear family, µrad
-    for a rotary one); a clear error for a family without a model."""
+    σ (µm, ″) and the readings' own noise σ: ``sigma_reading_um`` for a family whose readings are
+    lengths, ``sigma_reading_urad`` for one whose readings are angles (the other must stay 0); a
+    clear error for a family without a model."""
     if not isinstance(mechanism, AbstractMechanism):
         raise TypeError(f"model_for needs a mechanism (e.g. stewart_jax.load_mechanism(...)), got {mechanism!r}")
-    return _entry_for_family(mechanism.family).factory(mechanism, sigma_um, sigma_arcsec, sigma_stroke_um)
+    linear = mechanism.reading_unit == "mm"
+    given, other = (sigma_reading_um, "sigma_reading_urad") if linear else (sigma_reading_urad, "sigma_reading_um")
+    if (sigma_reading_urad if linear else sigma_reading_um) != 0:
+        unit = "mm (lengths)" if linear else "rad (angles)"
+        raise ValueError(f"{other} does not apply: a {mechanism.family}'s readings are in {unit}; give "
+                         f"{'sigma_reading_um' if linear else 'sigma_reading_urad'}")
+    return _entry_for_family(mechanism.family).factory(mechanism, sigma_um, sigma_arcsec, given)
 
 
 def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
@@ -133,7 +157,7 @@ def save_fitted_model(fitted, path: str | os.PathLike[str]) -> None:
         _reading_sigma_key(mechanism): float(m.reading_sigma) / (UM if mechanism.reading_unit == "mm" else 1e-6),
         "effects": [
             {"effect": e.name, "params": np.asarray(t).tolist(), "report_params": r["params"], "report_unit": e.unit}
-            | ({"terms": e.apply.terms.to_dict()} if hasattr(e.apply, "terms") else {})
+            | ({"terms": e.terms.to_dict()} if e.terms is not None else {})
             for e, t, r in zip(fitted.effects, fitted.thetas, fitted.effect_report(), strict=True)
         ],
         "geometry": mechanism.to_dict(),

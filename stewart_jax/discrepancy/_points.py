@@ -73,7 +73,7 @@ from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._families import model_for
 from ._pose_noise import CONDITION_NAMES, AbstractPoseNoiseModel
-from ._registry import AbstractDiscrepancyModel, Effect, effects_for, register_effect
+from ._registry import AbstractDiscrepancyModel, Effect, effects_for, register_again
 
 NEWTON_STEPS = 5
 """Chord (simplified Newton) steps of the forward kinematics through the effects (see the module's NOTE)."""
@@ -245,10 +245,7 @@ def _mirror(effect: Effect, name: str) -> Effect:
     def apply(theta, data, state):
         return state._replace(inner=effect.apply(theta, data, state.inner))
 
-    apply.__doc__ = effect.doc
-    return register_effect(name, effect.name, n_params=effect.n_params, scale=effect.scale, unit=effect.unit,
-                           report_factor=effect.report_factor, requires=effect.requires, acts_on=effect.acts_on,
-                           draw=effect.draw)(apply)
+    return register_again(effect, name, apply)
 
 
 def _register_effects(inner_name: str) -> None:

@@ -129,6 +129,14 @@ class AbstractMechanismModel(AbstractPoseNoiseModel):
     mechanism: eqx.AbstractVar[AbstractMechanism]
 
     @property
+    def reading_unit(self) -> str:
+        return self.mechanism.reading_unit
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        return self.mechanism.param_names
+
+    @property
     def base_initial(self) -> Float[Array, " p"]:
         return self.mechanism.params
 

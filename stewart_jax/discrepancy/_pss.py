@@ -22,7 +22,7 @@ from jaxtyping import Array, Float
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._pss import Geometry, PSSMechanism, rod_lengths, slider_leg_arrays
-from ._families import check_noise, register_model_family
+from ._families import check_family, check_noise, register_model_family
 from ._pose_noise import AbstractMechanismModel
 
 MODEL_NAME = "6-pss"
@@ -125,21 +125,18 @@ class PSSModel(AbstractMechanismModel):
 
 
 def pss_model(
-    geometry: Geometry, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
+    geometry: Geometry, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_reading_um: float = 0.0
 ) -> PSSModel:
     """:class:`PSSModel` starting from ``geometry`` (a 6-PSS, any parameter set) with pose noise σ
     (µm, ″) and optional reading noise (µm)."""
-    if not isinstance(geometry, PSSMechanism):
-        family = getattr(geometry, "family", type(geometry).__name__)
-        raise ValueError(f"pss_model needs a 6-PSS mechanism, got a {family}; model_for(mechanism) picks the "
-                         "model of its family")
-    check_noise(sigma_um, sigma_arcsec, sigma_stroke_um)
+    check_family(geometry, PSSMechanism, "pss_model")
+    check_noise(sigma_um, sigma_arcsec, sigma_reading_um)
     return PSSModel(
         geometry,
         jnp.asarray(float(sigma_um) * UM),
         jnp.asarray(float(sigma_arcsec) * ARCSEC),
-        jnp.asarray(float(sigma_stroke_um) * UM),
+        jnp.asarray(float(sigma_reading_um) * UM),
     )
 
 
-register_model_family(Geometry.family, MODEL_NAME, pss_model, lambda model, base: model.mechanism.with_params(base))
+register_model_family(Geometry.family, MODEL_NAME, pss_model)

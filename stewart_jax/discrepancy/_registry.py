@@ -66,6 +66,8 @@ class Effect(eqx.Module):
       direction of the true parameters a simulation hides (library units; its size is rescaled
       to the requested magnitude); ``None``: ``rng.standard_normal(k) · scale``.
     - ``doc``: the physics, from the function's docstring.
+    - ``terms``: for the open search's effect, its terms (``DiscoveredTerms``: what a model file
+      writes to rebuild the effect); ``None`` for a registered effect.
     """
 
     name: str = eqx.field(static=True)
@@ -79,6 +81,7 @@ class Effect(eqx.Module):
     acts_on: Literal["mechanism", "measurement"] = eqx.field(static=True, default="mechanism")
     doc: str = eqx.field(static=True, default="")
     draw: Callable[[np.random.Generator], np.ndarray] | None = eqx.field(static=True, default=None)
+    terms: Any = eqx.field(static=True, default=None)
 
     def random_direction(self, rng: np.random.Generator) -> Float[np.ndarray, " k"]:
         """A random direction of the true parameters (library units) for a simulation."""
@@ -141,6 +144,18 @@ def register_effect(
     return decorator
 
 
+def register_again(effect: Effect, model: str, apply: Callable[..., Any] | None = None) -> Effect:
+    """Register ``effect``'s definition (parameters, scales, units, columns, side, draw) under
+    ``model`` too: for an effect whose physics holds unchanged for another model (``apply``
+    ``None``: the same function), or whose function is adapted to that model's state."""
+    fn = effect.apply if apply is None else apply
+    if not fn.__doc__:
+        fn.__doc__ = effect.doc
+    return register_effect(model, effect.name, n_params=effect.n_params, scale=effect.scale, unit=effect.unit,
+                           report_factor=effect.report_factor, requires=effect.requires, acts_on=effect.acts_on,
+                           draw=effect.draw)(fn)
+
+
 def effects_for(model: str) -> tuple[Effect, ...]:
     """Every effect registered for ``model``, in registration order."""
     return tuple(_REGISTRY.get(model, {}).values())
@@ -194,6 +209,31 @@ class AbstractDiscrepancyModel(eqx.Module):
     """Whether many data sets may be fitted in one batch. ``False`` for a model whose fits hold
     LAPACK calls that, batched, deadlock jaxlib 0.10's CPU thread pool (see
     ``stewart_jax/_linalg.py``): its data sets are fitted one at a time."""
+    open_search_periodic: ClassVar[tuple[str, ...]] = ("reading",)
+    """The factors whose periodic terms the open search offers (``"reading"``: the actuator
+    readings; ``"time"``: the record's time)."""
+    output_noun: ClassVar[str] = "actuator"
+    """What one output is called in the names of the open search's terms: ``"actuator"``
+    (numbered from 1), or another noun, and then the outputs are named by ``output_names``."""
+    output_units: ClassVar[tuple[str, ...] | None] = None
+    """The unit of each output as a factor of the open search; ``None``: the readings' factor
+    unit (mm, or degrees for a crank angle: ``_discovery.reading_factor``)."""
+    output_report_units: ClassVar[tuple[str, ...] | None] = None
+    """The report unit of each output's residual; ``None``: :attr:`report_unit` for every one."""
+    time_unit: ClassVar[str] = "h"
+    """The unit of the open search's ``time`` factor in term names (hours for a session)."""
+
+    @property
+    def reading_unit(self) -> str:
+        """The library unit of the readings (``"mm"``; a mechanism's model: its mechanism's
+        ``reading_unit``)."""
+        return "mm"
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        """Labels of the base parameters; ``()``: the workflow numbers them (a mechanism's
+        model: its mechanism's ``param_names``)."""
+        return ()
 
     def effect_grid(self, effects: Sequence[Effect]) -> np.ndarray | None:
         """Optional: starting points for the augmented fits of an effect whose prediction is far

@@ -61,7 +61,7 @@ class FittedModel(eqx.Module):
                 "unit": e.unit,
                 "acts_on": e.acts_on,
             }
-            | ({"terms": e.apply.terms.to_dict()} if hasattr(e.apply, "terms") else {})  # the open search's
+            | ({"terms": e.terms.to_dict()} if e.terms is not None else {})  # the open search's
             for e, t in zip(self.effects, self.thetas, strict=True)
         ]
 
@@ -234,8 +234,13 @@ class DiagnosisReport:
                 lines.append(f"partial explanation: {p['effect']} passes the held-out test, but "
                              f"{', '.join(p['needs'])} explain(s) significantly more on top of it")
                 continue
-            lines.append(f"partial explanation: {p['effect']} removes {100 * p['gap_share']:.0f} % of the gap "
-                         f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
+            if p["gap_share"] > 0:
+                lines.append(f"partial explanation: {p['effect']} removes {100 * p['gap_share']:.0f} % of the gap "
+                             f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
+            else:  # significant on the training rows, but the held-out gap does not shrink
+                how = "widens" if p["heldout_rms"] > self.gap_before else "does not shrink"
+                lines.append(f"not an explanation: {p['effect']} {how} the held-out gap "
+                             f"(RMS {self.gap_before:.3g} → {p['heldout_rms']:.3g} {unit})")
         for t in self.discovered:
             lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
         for name, params in self.absorbed_by.items():

@@ -23,10 +23,10 @@ from jaxtyping import Array, Float
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._rus import RUSMechanism
-from ._effects import DRIFT_TIME_UNIT_S, T_REF_C, tracker_misalignment, tracker_scale
-from ._families import check_noise, register_model_family
+from ._families import check_family, check_noise, register_model_family
 from ._pose_noise import AbstractMechanismModel
 from ._registry import register_effect
+from ._shared_effects import T_REF_C, register_shared
 
 MODEL_NAME = "6-rus"
 URAD = 1e-6
@@ -88,15 +88,13 @@ def rus_model(
 ) -> RUSModel:
     """:class:`RUSModel` starting from the rotary hexapod ``mechanism`` with pose noise σ (µm, ″)
     and optional crank-reading noise (µrad)."""
-    if not isinstance(mechanism, RUSMechanism):
-        raise ValueError(f"rus_model needs a 6-RUS mechanism, got a {getattr(mechanism, 'family', mechanism)!r}; "
-                         "model_for(mechanism) picks the model of its family")
+    check_family(mechanism, RUSMechanism, "rus_model")
     check_noise(sigma_um, sigma_arcsec, sigma_reading_urad, "sigma_reading_urad")
     return RUSModel(mechanism, jnp.asarray(float(sigma_um) * UM), jnp.asarray(float(sigma_arcsec) * ARCSEC),
                     jnp.asarray(float(sigma_reading_urad) * URAD))
 
 
-register_model_family(RUSMechanism.family, MODEL_NAME, rus_model, lambda model, base: model.mechanism.with_params(base))
+register_model_family(RUSMechanism.family, MODEL_NAME, rus_model)
 
 
 # ---- candidate effects ------------------------------------------------------------------------
@@ -117,19 +115,8 @@ def gear_ratio(theta: Float[Array, "6"], data: CalibrationData, state: RUSState)
     return state._replace(gain=state.gain / (1.0 + theta))
 
 
-@register_effect(MODEL_NAME, "backlash", n_params=6, scale=1e-5, unit="µrad", report_factor=1 / URAD,
-                 requires=("directions",))
-def backlash(theta: Float[Array, "6"], data: CalibrationData, state: RUSState) -> RUSState:
-    """Gearbox lost motion of width ``b_i`` (rad): approached from direction ``dir_i = ±1`` the
-    reading is offset by ``b_i·dir_i/2`` from the crank angle."""
-    return state._replace(offset=state.offset + 0.5 * theta * data.directions)
-
-
-@register_effect(MODEL_NAME, "drift", n_params=6, scale=1e-5 / DRIFT_TIME_UNIT_S, unit="µrad/h",
-                 report_factor=DRIFT_TIME_UNIT_S / URAD, requires=("time",))
-def drift(theta: Float[Array, "6"], data: CalibrationData, state: RUSState) -> RUSState:
-    """Readings drift linearly during the run: reading = crank angle + ``c_i·t`` (rad/s)."""
-    return state._replace(offset=state.offset + theta * data.time[:, None])
+backlash = register_shared("backlash", MODEL_NAME, "rad")
+drift = register_shared("drift", MODEL_NAME, "rad")
 
 
 @register_effect(MODEL_NAME, "thermal_expansion", n_params=6, scale=1e-6, unit="ppm/K", report_factor=1e6,
@@ -142,16 +129,5 @@ def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: RU
     return state._replace(mechanism=eqx.tree_at(lambda x: x.rod_lengths, m, rods))
 
 
-rus_tracker_misalignment = register_effect(
-    MODEL_NAME, tracker_misalignment.name, n_params=tracker_misalignment.n_params, scale=tracker_misalignment.scale,
-    unit=tracker_misalignment.unit, report_factor=tracker_misalignment.report_factor,
-    acts_on=tracker_misalignment.acts_on)(tracker_misalignment.apply)
-"""The instrument frame's rotation and shift (:func:`~stewart_jax.discrepancy._effects.tracker_misalignment`):
-it maps the measured poses, whatever the legs."""
-
-
-rus_tracker_scale = register_effect(
-    MODEL_NAME, tracker_scale.name, n_params=tracker_scale.n_params, scale=tracker_scale.scale,
-    unit=tracker_scale.unit, report_factor=tracker_scale.report_factor,
-    acts_on=tracker_scale.acts_on)(tracker_scale.apply)
-"""The instrument's distance scale (:func:`~stewart_jax.discrepancy._effects.tracker_scale`)."""
+tracker_misalignment = register_shared("tracker_misalignment", MODEL_NAME, "rad")
+tracker_scale = register_shared("tracker_scale", MODEL_NAME, "rad")

@@ -115,7 +115,7 @@ def base_param_names(model) -> tuple[str, ...]:
     """Labels of a discrepancy model's base parameters: its mechanism's ``param_names`` when
     they match, ``A1x … B6z`` for the 36 joint centres of the 6-PSS, ``u1 …`` otherwise."""
     nb = int(model.base_initial.shape[0])
-    names = tuple(getattr(getattr(model, "mechanism", None), "param_names", ()) or ())
+    names = tuple(model.base_names)
     if len(names) == nb:
         return names
     if nb == 36:

@@ -28,7 +28,7 @@ from .._math import rotation_matrix
 from .._units import ARCSEC, UM
 from ..calibration._problem import CalibrationData
 from ..mechanism._ups import UPSMechanism
-from ._families import check_noise, register_model_family
+from ._families import check_family, check_noise, register_model_family
 from ._pose_noise import AbstractMechanismModel
 
 MODEL_NAME = "6-ups"
@@ -159,21 +159,18 @@ class UPSModel(AbstractMechanismModel):
 
 
 def ups_model(
-    mechanism: UPSMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_stroke_um: float = 0.0
+    mechanism: UPSMechanism, sigma_um: float = 0.1, sigma_arcsec: float = 0.1, sigma_reading_um: float = 0.0
 ) -> UPSModel:
     """:class:`UPSModel` starting from the strut hexapod ``mechanism`` with pose noise σ (µm, ″)
     and optional reading noise (µm)."""
-    if not isinstance(mechanism, UPSMechanism):
-        family = getattr(mechanism, "family", type(mechanism).__name__)
-        raise ValueError(f"ups_model needs a 6-UPS mechanism, got a {family}; model_for(mechanism) picks the "
-                         "model of its family")
-    check_noise(sigma_um, sigma_arcsec, sigma_stroke_um)
+    check_family(mechanism, UPSMechanism, "ups_model")
+    check_noise(sigma_um, sigma_arcsec, sigma_reading_um)
     return UPSModel(
         mechanism,
         jnp.asarray(float(sigma_um) * UM),
         jnp.asarray(float(sigma_arcsec) * ARCSEC),
-        jnp.asarray(float(sigma_stroke_um) * UM),
+        jnp.asarray(float(sigma_reading_um) * UM),
     )
 
 
-register_model_family(UPSMechanism.family, MODEL_NAME, ups_model, lambda model, base: model.mechanism.with_params(base))
+register_model_family(UPSMechanism.family, MODEL_NAME, ups_model)

@@ -11,7 +11,7 @@ are per strut (index ``i`` = strut ``i + 1``) unless stated; ``m`` is the number
 
 Effects are registered per model, so the 6-PSS's slider effects (``actuator_tilt``) are not
 offered for struts; those whose physics does not depend on the leg (``backlash``, ``drift``,
-``tracker_misalignment``, ``tracker_scale``) are the 6-PSS definitions registered again under this model. There
+``tracker_misalignment``, ``tracker_scale``) are the shared definitions of ``_shared_effects.py``. There
 is no ``zero_offset``: the zero-reading lengths ``lengths0`` are base parameters of the strut
 model already.
 """
@@ -23,8 +23,8 @@ from jaxtyping import Array, Float
 
 from .._units import UM
 from ..calibration._problem import CalibrationData
-from ._effects import T_REF_C, backlash, drift, tracker_misalignment, tracker_scale
-from ._registry import Effect, register_effect
+from ._registry import register_effect
+from ._shared_effects import T_REF_C, register_shared
 from ._ups import MODEL_NAME, PAYLOAD_WRENCHES, UPSState, gravity_axial_loads
 
 
@@ -83,23 +83,7 @@ def gravity_sag(theta: Float[Array, "11"], data: CalibrationData, state: UPSStat
     return state._replace(dlength=state.dlength + dl)
 
 
-def _same_physics(effect: Effect) -> Effect:
-    """Register a 6-PSS effect whose definition holds for struts unchanged (it changes only the
-    reading's offset or the measured poses) under the 6-UPS model."""
-    return register_effect(
-        MODEL_NAME,
-        effect.name,
-        n_params=effect.n_params,
-        scale=effect.scale,
-        unit=effect.unit,
-        report_factor=effect.report_factor,
-        requires=effect.requires,
-        acts_on=effect.acts_on,
-        draw=effect.draw,
-    )(effect.apply)
-
-
-ups_backlash = _same_physics(backlash)
-ups_drift = _same_physics(drift)
-ups_tracker_misalignment = _same_physics(tracker_misalignment)
-ups_tracker_scale = _same_physics(tracker_scale)
+backlash = register_shared("backlash", MODEL_NAME, "mm")
+drift = register_shared("drift", MODEL_NAME, "mm")
+tracker_misalignment = register_shared("tracker_misalignment", MODEL_NAME, "mm")
+tracker_scale = register_shared("tracker_scale", MODEL_NAME, "mm")

@@ -12,6 +12,12 @@
 - Families and presets are registries (:func:`register_family`, :func:`register_preset`,
   :func:`preset`); :func:`load_mechanism` reads a preset name or a JSON/TOML geometry file
   naming its family.
+- The family kit (``_family_kit.py``, public here for a family written outside the package):
+  :func:`field_array`, :func:`field_numbers`, :func:`field_travel` (field checks),
+  :func:`check_file_header`, :func:`check_keys`, :func:`read_travel`, :func:`travel_dict`
+  (geometry files), :func:`check_geometry` (the generic checks at every file load),
+  :func:`valid_poses` (the poses an inverse kinematics may call reachable),
+  :func:`population_totals` and :func:`dense_parameter_jacobian` (fast-path building blocks).
 - :func:`workspace_along_rays`, :func:`translation_envelope`, :func:`orientation_envelope`,
   :func:`max_travel` — the reachable workspace under the mechanism's limits, along rays.
 """
@@ -23,6 +29,19 @@ from ._batched import (
     forward_kinematics_newton as forward_kinematics_newton,
     inverse_kinematics_sharded as inverse_kinematics_sharded,
     inverse_kinematics_soa as inverse_kinematics_soa,
+)
+from ._family_kit import (
+    check_file_header as check_file_header,
+    check_geometry as check_geometry,
+    check_keys as check_keys,
+    dense_parameter_jacobian as dense_parameter_jacobian,
+    field_array as field_array,
+    field_numbers as field_numbers,
+    field_travel as field_travel,
+    population_totals as population_totals,
+    read_travel as read_travel,
+    travel_dict as travel_dict,
+    valid_poses as valid_poses,
 )
 from ._genhexkins import to_genhexkins as to_genhexkins
 from ._kinematics import (

@@ -182,6 +182,19 @@ class AbstractMechanism(eqx.Module):
         measurement uses, or ``None`` for three balls on the circle of the moving joints."""
         return None
 
+    def file_warnings(self) -> None:
+        """Warnings for a geometry file that loads but looks wrong (a unit slip: metres in a file
+        of mm, radians typed for degrees), issued with :func:`warnings.warn`; called by
+        :func:`~stewart_jax.mechanism.mechanism_from_dict` after the refusals of ``from_dict`` and
+        of :func:`~stewart_jax.mechanism.check_geometry` (default: none)."""
+
+    def fixed_joints(self) -> Float[Array, "6 3"] | None:
+        """The legs' joint centres fixed to the base, in B (mm): where a simulated tracker's base
+        targets go (``calibration``'s points model) — or ``None`` where a leg's lower joint moves
+        with its reading (the 6-PSS slider), and the base targets follow the moving joints'
+        height."""
+        return None
+
     @abc.abstractmethod
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """The moving-side joint centres in B, ``T·a_i + d + v0`` (mm): where the simulated

@@ -30,6 +30,7 @@ from .._math import euler_angles as euler_angles, rotation_matrix as rotation_ma
 from ._abstract import AbstractMechanism, IKSolution as IKSolution
 
 
+@eqx.filter_jit
 def solve_inverse_kinematics(mechanism: AbstractMechanism, poses: Float[Array, "... 6"]) -> IKSolution:
     """Readings (the family's ``reading_unit``: mm, or rad for a rotary family) and reachability
     of ``poses`` for any mechanism; pure and jittable
@@ -37,6 +38,7 @@ def solve_inverse_kinematics(mechanism: AbstractMechanism, poses: Float[Array, "
     return mechanism.solve_inverse_kinematics(poses)
 
 
+@eqx.filter_jit
 def ik_and_jacobian(mechanism: AbstractMechanism, poses: Float[Array, "... 6"]):
     """Readings, margins (``(..., 6)``) and the pose Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``)."""
     return mechanism.ik_and_jacobian(poses)

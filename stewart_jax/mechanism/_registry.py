@@ -74,6 +74,36 @@ def check_file_header(d: dict[str, Any], family: str) -> None:
         raise ValueError(f"{family} geometry lengths must be in mm, the file says units={units!r}")
 
 
+TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg")
+"""The geometry file's ``"travel"`` object, for every family: the pose half-widths (mm, degrees)."""
+
+
+def read_travel(travel: Any, family: str) -> tuple[float, ...] | None:
+    """A geometry file's ``"travel"`` (``None`` where absent) as the six pose half-widths in mm and
+    rad, or an error naming the keys of :data:`TRAVEL_KEYS`."""
+    if travel is None:
+        return None
+    if not isinstance(travel, dict) or set(travel) != set(TRAVEL_KEYS):
+        raise ValueError(f"{family} travel must be an object with exactly the keys {list(TRAVEL_KEYS)}, got {travel!r}")
+    import numpy as np
+
+    try:
+        t = np.asarray([travel[k] for k in TRAVEL_KEYS], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{family} travel must be numbers, got {travel!r}") from None
+    if not np.all(np.isfinite(t)):
+        raise ValueError(f"{family} travel must be finite, got {travel!r}")
+    return (*(float(v) for v in t[:3]), *(float(v) for v in np.deg2rad(t[3:])))
+
+
+def travel_dict(travel: tuple[float, ...]) -> dict[str, float]:
+    """The six pose half-widths (mm, rad) as the geometry file's ``"travel"`` object."""
+    import numpy as np
+
+    x, y, z, *angles = travel
+    return dict(zip(TRAVEL_KEYS, (x, y, z, *(float(np.rad2deg(a)) for a in angles)), strict=True))
+
+
 DOCUMENTATION_KEYS = ("name", "description", "comment", "source", "notes")
 """Keys a geometry file may carry for people (ignored), besides any key starting with ``_``."""
 
@@ -186,11 +216,14 @@ def preset(name: str) -> AbstractMechanism:
 
 
 def mechanism_from_dict(d: dict[str, Any]) -> AbstractMechanism:
-    """A geometry file's content → the mechanism of the family it names (default 6-PSS)."""
+    """A geometry file's content → the mechanism of the family it names (default 6-PSS): the
+    family's ``from_dict`` (its own fields and refusals), then, once for every family,
+    :func:`check_geometry`, then the family's :meth:`~AbstractMechanism.file_warnings`."""
     if not isinstance(d, dict):
         raise ValueError(f"a geometry must be a JSON/TOML object (mapping), got {type(d).__name__}")
     m = family(d.get("mechanism", DEFAULT_FAMILY)).from_dict(d)
-    check_geometry(m)
+    check_geometry(m)  # refusals before warnings
+    m.file_warnings()
     return m
 
 

@@ -48,12 +48,11 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import field_array, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, population_totals
-from ._registry import check_file_header, check_geometry, check_keys, register_family, register_preset
+from ._registry import check_file_header, check_keys, read_travel, register_family, register_preset, travel_dict
 
 N_LEGS = 6
 PARAM_SETS = ("54", "48")
 """The 6-RUS calibration parameter sets: with the crank zeros (default), without."""
-_TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg")
 _FILE_KEYS = ("base", "platform", "v0", "crank_lengths", "rod_lengths", "crank_azimuths_rad", "crank_azimuths_deg",
               "crank_zero_rad", "crank_limits_deg", "travel", "param_set")
 
@@ -178,6 +177,9 @@ class RUSMechanism(AbstractMechanism):
 
     # ---- kinematics -------------------------------------------------------------------------
 
+    def fixed_joints(self) -> Float[Array, "6 3"]:
+        return self.base
+
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """``T·platform_i + d + v0``: the platform joints in B (mm)."""
         rot = rotation_matrix(poses[..., 3:])
@@ -250,8 +252,7 @@ class RUSMechanism(AbstractMechanism):
         if self.crank_limits is not None:
             d["crank_limits_deg"] = [float(np.rad2deg(a)) for a in self.crank_limits]
         if self.travel is not None:
-            values = [*self.travel[:3], *np.rad2deg(self.travel[3:]).tolist()]
-            d["travel"] = dict(zip(_TRAVEL_KEYS, values, strict=True))
+            d["travel"] = travel_dict(self.travel)
         if self.param_set != "54":
             d["param_set"] = self.param_set
         return d
@@ -273,17 +274,10 @@ class RUSMechanism(AbstractMechanism):
         azimuth = d["crank_azimuths_rad"] if "crank_azimuths_rad" in d else np.deg2rad(
             np.asarray(d["crank_azimuths_deg"], dtype=np.float64))
         limits = d.get("crank_limits_deg")
-        travel = d.get("travel")
-        if travel is not None:
-            if not isinstance(travel, dict) or set(travel) != set(_TRAVEL_KEYS):
-                raise ValueError(f"6-RUS travel must be an object with exactly the keys {list(_TRAVEL_KEYS)}, "
-                                 f"got {travel!r}")
-            t = np.asarray([travel[k] for k in _TRAVEL_KEYS], dtype=np.float64)
-            travel = (*t[:3], *np.deg2rad(t[3:]))
+        travel = read_travel(d.get("travel"), cls.family)
         m = cls(d["base"], d["platform"], d.get("v0", (0.0, 0.0, 0.0)), d["crank_lengths"], d["rod_lengths"], azimuth,
                 d.get("crank_zero_rad"), crank_limits=None if limits is None else tuple(np.deg2rad(limits)),
                 travel=travel, param_set=str(d.get("param_set", "54")))
-        check_geometry(m)
         return m
 
 

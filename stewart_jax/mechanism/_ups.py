@@ -34,12 +34,11 @@ and ``l·(θ_max − θ)`` (the joint-angle margin as the arc the strut's far en
 over the limits that are set; with no limit set it is the strut length ``l`` (always ≥ 0, a
 strut cannot be "too long" without a limit).
 
-``travel`` (optional, static): the mechanism's published travel ``(x, y, z, tilt, rz)``: the
-largest ``|dx|``, ``|dy|``, ``|dz|`` (mm), ``|φ|`` and ``|θ|`` (rad, each) and ``|ψ|`` (rad).
-It describes the presets and is written to geometry files under the key ``"travel"`` (an
-extension of the geometry file: ``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``); the
-kinematics does not use it. A published travel is per axis: a pose at several axes' extremes
-at once may exceed a stroke limit.
+``travel`` (optional, static): the mechanism's published travel ``(x, y, z, rx, ry, rz)``: the
+largest ``|dx|``, ``|dy|``, ``|dz|`` (mm), ``|φ|``, ``|θ|`` and ``|ψ|`` (rad). It describes the
+presets and is written to geometry files under the key ``"travel"`` (every family's schema:
+``{"x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg"}``); the kinematics does not use it. A
+published travel is per axis: a pose at several axes' extremes at once may exceed a stroke limit.
 """
 
 from __future__ import annotations
@@ -55,13 +54,12 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .._checks import field_array, field_numbers, field_travel, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
-from ._registry import check_file_header, check_geometry, check_keys, register_family
+from ._registry import check_file_header, check_keys, read_travel, register_family, travel_dict
 from ._ups_checks import check_layout, warn_unit_slips
 
 N_LEGS = 6
 N_PARAMS_UPS = 42
 
-_TRAVEL_KEYS = ("x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg")
 _FILE_KEYS = ("base", "platform", "v0", "lengths0", "stroke_limits", "joint_angle_limits", "joint_angle_limit",
               "travel")
 
@@ -86,7 +84,7 @@ class UPSMechanism(AbstractMechanism):
       also takes one pair for all struts.
     - ``joint_angle_limit``: ``None`` or six angles (rad, each in (0, π/2)); the constructor
       also takes one number.
-    - ``travel``: ``None`` or ``(x_mm, y_mm, z_mm, tilt_rad, rz_rad)``, the published travel.
+    - ``travel``: ``None`` or ``(x_mm, y_mm, z_mm, rx_rad, ry_rad, rz_rad)``, the published travel.
     """
 
     family: ClassVar[str] = "6-UPS"
@@ -98,7 +96,7 @@ class UPSMechanism(AbstractMechanism):
     lengths0: Float[Array, "6"]
     stroke_limits: tuple[tuple[float, float], ...] | None = eqx.field(static=True)
     joint_angle_limit: tuple[float, ...] | None = eqx.field(static=True)
-    travel: tuple[float, float, float, float, float] | None = eqx.field(static=True)
+    travel: tuple[float, ...] | None = eqx.field(static=True)
 
     def __init__(
         self,
@@ -163,13 +161,13 @@ class UPSMechanism(AbstractMechanism):
 
     @property
     def travel_half_widths(self) -> np.ndarray | None:
-        """The travel as pose half-widths ``[x, y, z, tilt, tilt, rz]`` (mm, rad), or ``None``."""
-        if self.travel is None:
-            return None
-        x, y, z, tilt, rz = self.travel
-        return np.array([x, y, z, tilt, tilt, rz])
+        """The travel as pose half-widths ``[x, y, z, rx, ry, rz]`` (mm, rad), or ``None``."""
+        return None if self.travel is None else np.asarray(self.travel)
 
     # ---- kinematics -------------------------------------------------------------------------
+
+    def fixed_joints(self) -> Float[Array, "6 3"]:
+        return self.base
 
     def moving_joints(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6 3"]:
         """``T·platform_i + d + v0``: the moving joint centres in B (mm)."""
@@ -277,9 +275,7 @@ class UPSMechanism(AbstractMechanism):
             deg = [float(np.rad2deg(a)) for a in self.joint_angle_limit]
             d["joint_angle_limits"] = deg[0] if all(a == deg[0] for a in deg) else deg
         if self.travel is not None:
-            x, y, z, tilt, rz = self.travel
-            d["travel"] = dict(zip(_TRAVEL_KEYS, (x, y, z, float(np.rad2deg(tilt)), float(np.rad2deg(rz))),
-                                   strict=True))
+            d["travel"] = travel_dict(self.travel)
         return d
 
     @classmethod
@@ -287,7 +283,7 @@ class UPSMechanism(AbstractMechanism):
         """Inverse of :meth:`to_dict`. Required: ``base``, ``platform`` (6×3, mm); optional:
         ``v0``, ``lengths0``, ``stroke_limits`` (one ``[min, max]`` pair or six, mm),
         ``joint_angle_limits`` (degrees, one number or six, each in (0, 90)), ``travel``
-        (``{"x_mm", "y_mm", "z_mm", "tilt_deg", "rz_deg"}``), ``units`` (must be ``"mm"``)."""
+        (``{"x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg"}``), ``units`` (must be ``"mm"``)."""
         check_file_header({"mechanism": cls.family, **d}, cls.family)  # called directly, the key may be absent
         check_keys(d, cls.family, _FILE_KEYS)
         missing = [k for k in ("base", "platform") if k not in d]
@@ -303,14 +299,7 @@ class UPSMechanism(AbstractMechanism):
                     f"6-UPS joint_angle_limits must be in degrees, in (0, 90), got {a.tolist()}"
                 )
             angle = np.deg2rad(a)
-        travel = d.get("travel")
-        if travel is not None:
-            if not isinstance(travel, dict) or set(travel) != set(_TRAVEL_KEYS):
-                raise ValueError(
-                    f"6-UPS travel must be an object with exactly the keys {list(_TRAVEL_KEYS)}, got {travel!r}"
-                )
-            t = _finite([travel[k] for k in _TRAVEL_KEYS], "travel")
-            travel = (*t[:3], *np.deg2rad(t[3:]))
+        travel = read_travel(d.get("travel"), cls.family)
         m = cls(
             d["base"],
             d["platform"],
@@ -321,9 +310,10 @@ class UPSMechanism(AbstractMechanism):
             travel=travel,
         )
         check_layout(m)
-        check_geometry(m)  # refusals before warnings
-        warn_unit_slips(m)
         return m
+
+    def file_warnings(self) -> None:
+        warn_unit_slips(self)
 
 
 class _Strut(NamedTuple):
@@ -472,5 +462,5 @@ def _angle_limit(x: Any) -> tuple[float, ...] | None:
     return tuple(float(v) for v in a)
 
 
-def _travel(x: Any) -> tuple[float, float, float, float, float] | None:
-    return None if x is None else field_travel(x, "UPSMechanism", ("x", "y", "z"), ("tilt", "rz"))  # type: ignore[return-value]
+def _travel(x: Any) -> tuple[float, ...] | None:
+    return None if x is None else field_travel(x, "UPSMechanism", ("x", "y", "z"), ("rx", "ry", "rz"))

@@ -71,7 +71,7 @@ def rubin_camera() -> UPSMechanism:
         _RUBIN_CAMERA_MOVING - _RUBIN_CAMERA_PIVOT,
         _RUBIN_CAMERA_PIVOT,
         stroke_limits=(-14.1, 14.1),
-        travel=(11.4, 11.4, 13.1, float(np.deg2rad(0.36)), float(np.deg2rad(0.10))),
+        travel=(11.4, 11.4, 13.1, float(np.deg2rad(0.36)), float(np.deg2rad(0.36)), float(np.deg2rad(0.10))),
     )
 
 
@@ -84,7 +84,7 @@ def rubin_m2() -> UPSMechanism:
         _RUBIN_M2_FIXED,
         _RUBIN_M2_MOVING - _RUBIN_M2_PIVOT,
         _RUBIN_M2_PIVOT,
-        travel=(10.5, 10.5, 8.9, float(np.deg2rad(0.175)), float(np.deg2rad(0.05))),
+        travel=(10.5, 10.5, 8.9, float(np.deg2rad(0.175)), float(np.deg2rad(0.175)), float(np.deg2rad(0.05))),
     )
 
 
@@ -100,7 +100,7 @@ def _joint_circle(radius: float, short_edge: float, centres_deg: tuple[float, ..
     return np.stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(6)], axis=-1)
 
 
-FAST_STEWART_TRAVEL = (10.0, 10.0, 10.0, float(np.deg2rad(1.0)), float(np.deg2rad(1.0)))
+FAST_STEWART_TRAVEL = (10.0, 10.0, 10.0, float(np.deg2rad(1.0)), float(np.deg2rad(1.0)), float(np.deg2rad(1.0)))
 """The ``fast_stewart`` preset's travel (our choice; Yin et al. give none): ±10 mm on each axis,
 the 0.01 m amplitude of the lower platform's motion in their simulation, and ±1° on each angle,
 the angular travel the library uses for the 2018 calibration study."""

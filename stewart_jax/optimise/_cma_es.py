@@ -64,7 +64,7 @@ f11 in 10-D (5 instances × 8 seeds) a margin of 5 % needed 7 677 and 5 577, 2.5
 there: every point the method reports lies in Ω.
 
 NOTE: for common random numbers with the other population methods, a run starts like them by
-default (``start="sample"``): ``n_nests`` points uniform in Ω; the initial mean is the best of
+default (``start="sample"``): ``start_samples`` points uniform in Ω; the initial mean is the best of
 them and ``σ₀ = sigma0``. ``start="y0"`` starts at :func:`minimise`'s ``y0`` instead.
 """
 
@@ -82,11 +82,9 @@ from jaxtyping import Array, Float, Int
 from ._driver import (
     AbstractPopulationSolver,
     RestartSchedule,
-    _check,
     draw,
     evaluate,
     init_population,
-    target_reached,
 )
 from ._result import RESULTS
 
@@ -175,9 +173,9 @@ class CMAES(AbstractPopulationSolver):
     - ``population_size`` (λ): ``None`` — Hansen's default ``4 + ⌊3 ln n⌋``.
     - ``sigma0``: initial step size as a fraction of Ω's width; 0.3 (the tutorial's advice for an
       optimum expected anywhere in the box: about a third of the interval).
-    - ``start``: ``"sample"`` (default) — the best of ``n_nests`` points uniform in Ω is the
+    - ``start``: ``"sample"`` (default) — the best of ``start_samples`` points uniform in Ω is the
       initial mean; ``"y0"`` — :func:`minimise`'s ``y0`` (one evaluation).
-    - ``n_nests``: the size of that initial sample; 37, the population of the cuckoo methods, so
+    - ``start_samples``: the size of that initial sample; 37, the population of the cuckoo methods, so
       that every population method starts from the same points for a given key.
     - ``boundary``: ``"transform"`` (default; pycma's ``BoundTransform``, see the module's NOTE) or
       ``"penalty"`` (projection and a penalty of weight ``penalty`` on the distance to Ω).
@@ -189,10 +187,10 @@ class CMAES(AbstractPopulationSolver):
       (IPOP's runs interleaved with small-population runs; see the module's docstring).
     - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
-    Evaluations: ``n_nests`` (or 1) at init; ``λ`` per generation.
+    Evaluations: ``start_samples`` (or 1) at init; ``λ`` per generation.
     """
 
-    n_nests: int = 37
+    start_samples: int = 37
     population_size: int | None = None
     sigma0: float = 0.3
     start: Literal["sample", "y0"] = "sample"
@@ -207,19 +205,19 @@ class CMAES(AbstractPopulationSolver):
     stall_rtol: float = 1e-6
 
     def __check_init__(self):
-        _check(self, "sigma0", self.sigma0 > 0, "> 0")
-        _check(self, "penalty", self.penalty >= 0, ">= 0")
-        _check(self, "tolx", self.tolx >= 0, ">= 0")
-        _check(self, "tolfun", self.tolfun >= 0, ">= 0")
+        self.check_field("sigma0", self.sigma0 > 0, "> 0")
+        self.check_field("penalty", self.penalty >= 0, ">= 0")
+        self.check_field("tolx", self.tolx >= 0, ">= 0")
+        self.check_field("tolfun", self.tolfun >= 0, ">= 0")
         if self.population_size is not None:
-            _check(self, "population_size", self.population_size >= 4, "None or >= 4")
+            self.check_field("population_size", self.population_size >= 4, "None or >= 4")
         if self.boundary not in ("transform", "penalty"):
             raise ValueError(f"CMAES.boundary must be 'transform' or 'penalty', got {self.boundary!r}")
         if self.start not in ("sample", "y0"):
             raise ValueError(f"CMAES.start must be 'sample' or 'y0', got {self.start!r}")
         if self.restarts not in ("none", "ipop", "bipop"):
             raise ValueError(f"CMAES.restarts must be 'none', 'ipop' or 'bipop', got {self.restarts!r}")
-        _check(self, "max_restarts", self.max_restarts >= 0, ">= 0")
+        self.check_field("max_restarts", self.max_restarts >= 0, ">= 0")
 
     def _lambda(self, n_dim: int) -> int:
         return default_population_size(n_dim) if self.population_size is None else int(self.population_size)
@@ -238,7 +236,8 @@ class CMAES(AbstractPopulationSolver):
             if level.init_evaluations(n_dim) + level.step_evaluations(n_dim)[1] > max_evaluations:
                 break
             levels.append(level)
-        return RestartSchedule(base, tuple(levels), self.restarts == "bipop")
+        return RestartSchedule(base, tuple(levels), self.restarts == "bipop",
+                               lambda s, factor: dataclasses.replace(s, sigma0=s.sigma0 * factor))
 
     def init(self, fn, y0, lower, upper, key):
         n = lower.shape[-1]
@@ -248,7 +247,7 @@ class CMAES(AbstractPopulationSolver):
             f0 = evaluate(fn, x0[None])[0]
             best_x, best_f, n_evals = x0, f0, jnp.asarray(1, jnp.int32)
         else:
-            pop = init_population(fn, lower, upper, key, self.n_nests)
+            pop = init_population(fn, lower, upper, key, self.start_samples)
             best_x, best_f, n_evals = pop.best_x, pop.best_f, pop.n_evals
         mean = (best_x - lower) / (upper - lower)
         zeros = jnp.zeros(n, jnp.float64)
@@ -328,7 +327,7 @@ class CMAES(AbstractPopulationSolver):
         n = state.mean.shape[-1]
         lam = self._lambda(n)
         history = strategy_parameters(n, lam)["history"]
-        reached = target_reached(self, state)
+        reached = self.target_reached(state)
         diag = jnp.sqrt(jnp.diagonal(state.cov))
         tolx = state.sigma * jnp.maximum(jnp.max(diag), jnp.max(jnp.abs(state.p_c))) < self.tolx
         spread = jnp.max(state.recent_best) - jnp.min(state.recent_best)
@@ -343,7 +342,7 @@ class CMAES(AbstractPopulationSolver):
         return reached | converged | stalled, why
 
     def init_evaluations(self, n_dim):
-        return 1 if self.start == "y0" else self.n_nests
+        return 1 if self.start == "y0" else self.start_samples
 
     def step_evaluations(self, n_dim):
         lam = self._lambda(n_dim)

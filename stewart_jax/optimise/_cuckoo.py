@@ -13,7 +13,7 @@ generation
 
 NOTE: the reference code writes ``K = rand > pa`` (each coordinate changes with probability
 ``1 − pa``); here a coordinate is discovered with probability ``pa``, the probability the
-paper states. Both phases evaluate every nest: ``2·n_nests`` calls per generation.
+paper states. Both phases evaluate every nest: ``2·population_size`` calls per generation.
 """
 
 from __future__ import annotations
@@ -31,11 +31,31 @@ from ._driver import (
 from ._levy import BETA, mantegna_from_normals
 
 
+def check_probability(solver: AbstractPopulationSolver, name: str, p) -> None:
+    """A cuckoo method's discovery or abandonment probability (``pa``, ``lu``) lies in [0, 1]
+    (elementwise for an array of settings)."""
+    solver.check_field(name, (0.0 <= p) & (p <= 1.0), "a probability in [0, 1]")
+
+
+def check_levy(solver: AbstractPopulationSolver, beta, alpha=None) -> None:
+    """The Lévy flight's exponent ``beta`` in (0, 2] (Mantegna's algorithm) and, where the
+    method has one, its step scale ``alpha`` > 0."""
+    solver.check_field("beta", (0.0 < beta) & (beta <= 2.0), "a Lévy exponent in (0, 2]")
+    if alpha is not None:
+        solver.check_field("alpha", alpha > 0.0, "> 0")
+
+
+def check_n_worst(solver: AbstractPopulationSolver, n_worst: int) -> None:
+    """The simplex operations of SMCS and VSA-SMCS act on 1 to ``population_size − 1`` worst nests."""
+    n = solver.population_size
+    solver.check_field("n_worst", (1 <= n_worst) & (n_worst <= n - 1), f"in [1, population_size − 1 = {n - 1}]")
+
+
 def levy_flight_phase(fn, state: PopulationState, lower, upper, rnd, alpha: float, beta: float
                       ) -> PopulationState:
     """CS step 1: Lévy flights around the current best, clipped to Ω, greedy. ``rnd``:
     standard normals ``zu``, ``zv``, ``z`` of the population's shape."""
-    x = state.nests
+    x = state.population
     sp = mantegna_from_normals(rnd["zu"], rnd["zv"], beta)
     x_new = x + alpha * sp * (x - state.best_x) * rnd["z"]
     x_new = jnp.clip(x_new, lower, upper)
@@ -48,7 +68,7 @@ def discovery_phase(fn, state: PopulationState, lower, upper, rnd, pa: float) ->
     """CS step 2: a fraction ``pa`` of coordinates is discovered and rebuilt by a biased
     random walk between two random nests, clipped to Ω, greedy. ``rnd``: uniforms ``mask``
     (population's shape), ``perm`` (2, n) — permutations by argsort — and ``r`` (1,)."""
-    x = state.nests
+    x = state.population
     n = x.shape[0]
     mask = rnd["mask"] < pa
     p1, p2 = jnp.argsort(rnd["perm"], axis=-1)
@@ -67,8 +87,8 @@ def cs_randoms(key, n: int, d: int):
 
 def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, beta: float, pa: float
                   ) -> PopulationState:
-    """One CS generation: Lévy flights then discovery (``2·n_nests`` calls), generation + 1."""
-    rnd = cs_randoms(key, *state.nests.shape)
+    """One CS generation: Lévy flights then discovery (``2·population_size`` calls), generation + 1."""
+    rnd = cs_randoms(key, *state.population.shape)
     state = levy_flight_phase(fn, state, lower, upper, rnd, alpha, beta)
     state = discovery_phase(fn, state, lower, upper, rnd, pa)
     return state._replace(generation=state.generation + 1)
@@ -77,7 +97,7 @@ def cs_generation(fn, state: PopulationState, lower, upper, key, alpha: float, b
 class CuckooSearch(AbstractPopulationSolver):
     """Cuckoo search (Yang & Deb 2009).
 
-    - ``n_nests``: population size; 25, the value of Yang & Deb's paper and code.
+    - ``population_size``: the number of nests; 25, the value of Yang & Deb's paper and code.
     - ``pa``: discovery probability; 0.25 (Yang & Deb).
     - ``alpha``: Lévy step scale; 0.01 (Yang & Deb's code: "0.01 … to avoid the flights
       becoming too aggressive").
@@ -89,7 +109,7 @@ class CuckooSearch(AbstractPopulationSolver):
       (:class:`~stewart_jax.optimise.AbstractPopulationSolver`).
     """
 
-    n_nests: int = 25
+    population_size: int = 25
     pa: float = 0.25
     alpha: float = 0.01
     beta: float = BETA
@@ -97,8 +117,12 @@ class CuckooSearch(AbstractPopulationSolver):
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 
+    def __check_init__(self):
+        check_probability(self, "pa", self.pa)
+        check_levy(self, self.beta, self.alpha)
+
     def step(self, fn, state, lower, upper, key):
         return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
 
     def step_evaluations(self, n_dim):
-        return 2 * self.n_nests, 2 * self.n_nests
+        return 2 * self.population_size, 2 * self.population_size

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ._driver import AbstractPopulationSolver, _check, draw, evaluate, greedy, population_state
+from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, population_state
 
 
 class DifferentialEvolution(AbstractPopulationSolver):
     """DE/rand/1/bin (Storn & Price 1997) over the box Ω.
 
-    - ``n_nests`` (NP): population size; 37, the cuckoo methods' population, so that every
+    - ``population_size`` (NP): population size; 37, the cuckoo methods' population, so that every
       population method starts from the same points for a given key (common random numbers).
       Storn & Price suggest 5–10 × the dimension; at the budgets of Wang et al. (2018)'s study
       (10⁴–10⁵ evaluations in 36 dimensions) that would leave only tens of generations.
@@ -33,10 +33,10 @@ class DifferentialEvolution(AbstractPopulationSolver):
       ("F = 0.5 … CR = 0.1, or 0.9 … for a quick convergence").
     - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
-    Evaluations: ``n_nests`` at init and per generation.
+    Evaluations: ``population_size`` at init and per generation.
     """
 
-    n_nests: int = 37
+    population_size: int = 37
     mutation: float = 0.5
     crossover: float = 0.9
     target: float | None = None
@@ -44,12 +44,12 @@ class DifferentialEvolution(AbstractPopulationSolver):
     stall_rtol: float = 1e-6
 
     def __check_init__(self):
-        _check(self, "n_nests", self.n_nests >= 4, ">= 4 (a target and three distinct donors)")
-        _check(self, "mutation", (self.mutation > 0) & (self.mutation <= 2), "in (0, 2]")
-        _check(self, "crossover", (self.crossover >= 0) & (self.crossover <= 1), "a probability in [0, 1]")
+        self.check_field("population_size", self.population_size >= 4, ">= 4 (a target and three distinct donors)")
+        self.check_field("mutation", (self.mutation > 0) & (self.mutation <= 2), "in (0, 2]")
+        self.check_field("crossover", (self.crossover >= 0) & (self.crossover <= 1), "a probability in [0, 1]")
 
     def step(self, fn, state, lower, upper, key):
-        x = state.nests
+        x = state.population
         n, d = x.shape
         rnd = draw(key, pick=("uniform", (n, n - 1)), cross=("uniform", (n, d)), jrand=("uniform", (n,)))
         offsets = jnp.argsort(rnd["pick"], axis=-1)[:, :3] + 1
@@ -62,4 +62,4 @@ class DifferentialEvolution(AbstractPopulationSolver):
         return population_state(nests, fit, state.n_evals + n, state.generation + 1, state)
 
     def step_evaluations(self, n_dim):
-        return self.n_nests, self.n_nests
+        return self.population_size, self.population_size

@@ -2,7 +2,7 @@
 
 The design follows optimistix (an immutable solver object holding hyper-parameters only,
 a separate state pytree, ``init``/``step``/``terminate → (bool, RESULTS)``) and evosax
-(population steps vmapped over nests, a fixed generation budget in ``lax.scan``). The scan
+(population steps vmapped over the population, a fixed generation budget in ``lax.scan``). The scan
 length is fixed by the evaluation budget, so that a batch of trials compiles once; once a trial
 has terminated (its solver's ``terminate`` holds: the caller's ``target`` reached, or the
 solver's own convergence test) or the next step could overrun the budget, its state is frozen
@@ -26,16 +26,18 @@ that a failed evaluation can never become the best. The contract — bounds fini
 a scalar objective — is checked before anything is traced.
 
 Writing a new solver: subclass :class:`AbstractPopulationSolver` (or :class:`AbstractSolver`),
-give it its hyper-parameters as fields (validated in ``__check_init__``), implement ``step``
-(one generation, on :class:`PopulationState`) and ``step_evaluations``, using the helpers
-:func:`evaluate`, :func:`greedy`, :func:`uniform_in_box`, :func:`draw` and
-:func:`population_state`; :func:`minimise` runs it.
+give it its hyper-parameters as fields (validated in ``__check_init__`` with
+:meth:`AbstractSolver.check_field`), implement ``step`` (one generation, on
+:class:`PopulationState`) and ``step_evaluations``, using the helpers :func:`evaluate`,
+:func:`greedy`, :func:`uniform_in_box`, :func:`draw` and :func:`population_state`;
+:func:`minimise` runs it. What the driver asks of a solver is declared on
+:class:`AbstractSolver`, each with a default.
 """
 
 from __future__ import annotations
 
 import abc
-import dataclasses
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import equinox as eqx
@@ -94,16 +96,16 @@ def greedy(x, f, x_new, f_new):
 
 
 class PopulationState(NamedTuple):
-    """State of the population methods (CS, SMCS, VSA-SMCS).
+    """State of the population methods (CS, SMCS, VSA-SMCS, DE; PSO and CMA-ES start from one).
 
-    - ``nests``: ``Float[Array, "n d"]``, the population.
-    - ``fitness``: ``Float[Array, "n"]``, the objective at each nest (+inf for NaN).
+    - ``population``: ``Float[Array, "n d"]``, the points (a cuckoo method's nests).
+    - ``fitness``: ``Float[Array, "n"]``, the objective at each point (+inf for NaN).
     - ``best_x``, ``best_f``: the best point seen so far and its value.
     - ``n_evals``: objective calls so far.
     - ``generation``: generations done (``t`` of Wang et al. 2018, eq. 11).
     """
 
-    nests: Float[Array, "n d"]
+    population: Float[Array, "n d"]
     fitness: Float[Array, " n"]
     best_x: Float[Array, " d"]
     best_f: Float[Array, ""]
@@ -111,22 +113,72 @@ class PopulationState(NamedTuple):
     generation: Int[Array, ""]
 
 
-def population_state(nests, fitness, n_evals, generation, prev: PopulationState | None = None
+def population_state(population, fitness, n_evals, generation, prev: PopulationState | None = None
                      ) -> PopulationState:
-    """A :class:`PopulationState` whose best-so-far is updated from ``nests``."""
+    """A :class:`PopulationState` whose best-so-far is updated from ``population``."""
     i = jnp.argmin(fitness)
-    bx, bf = nests[i], fitness[i]
+    bx, bf = population[i], fitness[i]
     if prev is not None:
         keep = prev.best_f <= bf
         bx = jnp.where(keep, prev.best_x, bx)
         bf = jnp.where(keep, prev.best_f, bf)
-    return PopulationState(nests, fitness, bx, bf, jnp.asarray(n_evals, jnp.int32),
+    return PopulationState(population, fitness, bx, bf, jnp.asarray(n_evals, jnp.int32),
                            jnp.asarray(generation, jnp.int32))
 
 
 class AbstractSolver(AbstractOptimiser):
     """An iterative solver over a box, run by :func:`minimise`: hyper-parameters only. Its state
-    is any pytree with ``best_x``, ``best_f`` and ``n_evals`` attributes."""
+    is any pytree with ``best_x``, ``best_f`` and ``n_evals`` attributes.
+
+    - ``target``: the run stops once the best value is at or below it (status
+      ``target_reached``; :meth:`target_reached` is the test a :meth:`terminate` uses); any real
+      number, negative included, checked at construction. ``None``: no value stops the run,
+      which spends its budget or ends on the solver's own convergence test.
+
+    The driver asks every solver the same questions, each with a default: :meth:`restart_schedule`
+    (one run), :meth:`generation_limit` (none beyond the budget), :meth:`with_generation_budget`
+    (the solver unchanged). A subclass checks its hyper-parameters in ``__check_init__`` with
+    :meth:`check_field`.
+    """
+
+    target: eqx.AbstractVar[float | None]
+
+    def __check_init__(self):
+        t = self.target
+        if t is None or isinstance(t, jax.core.Tracer):
+            return
+        if not np.all(~np.isnan(np.asarray(t, dtype=np.float64))):
+            raise ValueError(f"{type(self).__name__}.target must be None or a real number, got {t!r}")
+
+    def check_field(self, field: str, ok, requirement: str) -> None:
+        """Raise at construction when the hyper-parameter ``field`` is out of range, naming it:
+        ``ok`` a bool or an array of bools (every element must hold; a tracer passes, see
+        :func:`holds`), ``requirement`` what it must be (``"> 0"``)."""
+        if not holds(ok):
+            raise ValueError(f"{type(self).__name__}.{field} must be {requirement}, got {vars(self)[field]!r}")
+
+    def target_reached(self, state) -> Bool[Array, ""]:
+        """``state.best_f ≤ target`` (never, where ``target`` is ``None``)."""
+        if self.target is None:
+            return jnp.asarray(False)
+        return state.best_f <= self.target
+
+    def restart_schedule(self, n_dim: int, max_evaluations: int) -> RestartSchedule | None:
+        """The runs of a restart strategy sharing the budget (:class:`RestartSchedule`: CMA-ES's
+        IPOP and BIPOP), or ``None`` for one run (default)."""
+        del n_dim, max_evaluations
+        return None
+
+    def generation_limit(self) -> int | None:
+        """The most generations a run takes, where fewer than the budget allows (default
+        ``None``: the budget decides)."""
+        return None
+
+    def with_generation_budget(self, n_generations: int) -> AbstractSolver:
+        """The solver for a run of ``n_generations`` steps: for a solver whose step depends on
+        the planned number of generations (VSA-SMCS's ``T_max``); default: itself."""
+        del n_generations
+        return self
 
     def solve(self, objective: Objective, y0, lower, upper, key, args, max_evaluations: int) -> OptimiseResult:
         """:func:`minimise` of ``objective.cost``."""
@@ -176,44 +228,43 @@ class AbstractSolver(AbstractOptimiser):
         """The fewest and the most objective calls one :meth:`step` makes."""
 
 
-def init_population(fn, lower, upper, key, n_nests: int) -> PopulationState:
-    """``n_nests`` nests uniform in Ω and their fitness (``n_nests`` calls)."""
-    x = uniform_in_box(key, (n_nests, lower.shape[-1]), lower, upper)
-    return population_state(x, evaluate(fn, x), n_nests, 0)
+def init_population(fn, lower, upper, key, n: int) -> PopulationState:
+    """``n`` points uniform in Ω and their fitness (``n`` calls)."""
+    x = uniform_in_box(key, (n, lower.shape[-1]), lower, upper)
+    return population_state(x, evaluate(fn, x), n, 0)
 
 
 class AbstractPopulationSolver(AbstractSolver):
-    """A population method (CS, SMCS, VSA-SMCS, DE, PSO, CMA-ES): ``n_nests`` nests uniform in Ω
-    at init.
+    """A population method (CS, SMCS, VSA-SMCS, DE, PSO, CMA-ES).
 
-    - ``target``: the run stops once the best value is at or below it (status
-      ``target_reached``); any real number, negative included. ``None`` (default): no value
-      stops the run, which spends its budget (fixed-budget comparisons) or ends on the solver's
-      own convergence test. The paper's ``ε`` of Wang et al. (2018) is such a target.
+    - ``population_size``: the points evaluated per generation, sampled uniform in Ω at init
+      (a cuckoo method's nests, a swarm's particles; CMA-ES's ``λ``, where ``None`` is its
+      default and the method starts from its own sample); at least 2.
+    - ``target`` (:class:`AbstractSolver`): ``None`` by default in every population method,
+      which then spends its budget (fixed-budget comparisons) or ends on its own convergence
+      test. The paper's ``ε`` of Wang et al. (2018) is such a target.
     - ``stall_generations``, ``stall_rtol``: over the last ``stall_generations`` generations
       the best value improved by at most ``stall_rtol·|best|`` — the search has settled (status
       ``stalled``). This is evaluated once, at the end, and never shortens a run. Defaults 100
       and 1e-6.
     """
 
-    n_nests: eqx.AbstractVar[int]
-    target: eqx.AbstractVar[float | None]
+    population_size: eqx.AbstractVar[int | None]
     stall_generations: eqx.AbstractVar[int]
     stall_rtol: eqx.AbstractVar[float]
 
     def __check_init__(self):
-        _check(self, "n_nests", self.n_nests >= 2, "at least 2")
-        _check_shared(self)
-        _check_target(self)
-        _check(self, "stall_generations", self.stall_generations >= 1, ">= 1")
-        _check(self, "stall_rtol", self.stall_rtol >= 0, ">= 0")
+        if self.population_size is not None:
+            self.check_field("population_size", self.population_size >= 2, "at least 2")
+        self.check_field("stall_generations", self.stall_generations >= 1, ">= 1")
+        self.check_field("stall_rtol", self.stall_rtol >= 0, ">= 0")
 
     def init(self, fn, y0, lower, upper, key):
-        del y0  # nests start uniform in the box
-        return init_population(fn, lower, upper, key, self.n_nests)
+        del y0  # the population starts uniform in the box
+        return init_population(fn, lower, upper, key, self.population_size)
 
     def terminate(self, state):
-        return target_reached(self, state), RESULTS.target_reached
+        return self.target_reached(state), RESULTS.target_reached
 
     def converged(self, history_cost, history_evaluations):
         # The last step that did work is the first index holding the final evaluation count
@@ -224,22 +275,7 @@ class AbstractPopulationSolver(AbstractSolver):
         return (last >= self.stall_generations) & jnp.isfinite(now) & (ref - now <= self.stall_rtol * jnp.abs(now))
 
     def init_evaluations(self, n_dim):
-        return self.n_nests
-
-
-def target_reached(solver, state) -> Bool[Array, ""]:
-    """``best_f ≤ solver.target`` (never, where the solver's ``target`` is ``None``)."""
-    if solver.target is None:
-        return jnp.asarray(False)
-    return state.best_f <= solver.target
-
-
-def _check_target(solver) -> None:
-    t = solver.target
-    if t is None or isinstance(t, jax.core.Tracer):
-        return
-    if not np.all(~np.isnan(np.asarray(t, dtype=np.float64))):
-        raise ValueError(f"{type(solver).__name__}.target must be None or a real number, got {t!r}")
+        return self.population_size
 
 
 def holds(ok) -> bool:
@@ -251,40 +287,12 @@ def holds(ok) -> bool:
     return bool(np.all(np.asarray(ok)))
 
 
-def _check(solver, field: str, ok, requirement: str) -> None:
-    """Raise at construction when a hyper-parameter is out of range, naming it."""
-    if not holds(ok):
-        raise ValueError(f"{type(solver).__name__}.{field} must be {requirement}, got {getattr(solver, field)!r}")
-
-
-def _check_shared(solver) -> None:
-    """The hyper-parameters the cuckoo-family solvers share, checked where a solver has them
-    (elementwise for an array of settings; skipped for a tracer, see :func:`holds`)."""
-    for name, ok, req in (
-        ("pa", lambda v: (0.0 <= v) & (v <= 1.0), "a probability in [0, 1]"),
-        ("lu", lambda v: (0.0 <= v) & (v <= 1.0), "a probability in [0, 1]"),
-        ("alpha", lambda v: v > 0.0, "> 0"),
-        ("beta", lambda v: (0.0 < v) & (v <= 2.0), "a Lévy exponent in (0, 2]"),
-        ("n_worst", lambda v: (1 <= v) & (v <= solver.n_nests - 1), f"in [1, n_nests − 1 = {solver.n_nests - 1}]"),
-    ):
-        if hasattr(solver, name) and not holds(ok(getattr(solver, name))):
-            raise ValueError(f"{type(solver).__name__}.{name} must be {req}, got {getattr(solver, name)!r}")
-
-
 def n_steps_for_budget(solver: AbstractSolver, n_dim: int, max_evaluations: int) -> int:
     """The scan length that a budget of ``max_evaluations`` calls allows (at least 1):
     exact for the population methods, an upper bound where a step's cost varies."""
     lo, _ = solver.step_evaluations(n_dim)
     spare = int(max_evaluations) - solver.init_evaluations(n_dim) - solver.final_evaluations(n_dim)
     return max(1, spare // lo)
-
-
-def with_generation_budget(solver: AbstractSolver, n_generations: int) -> AbstractSolver:
-    """Solvers whose step depends on the planned number of generations (VSA-SMCS's
-    ``T_max``) take it from the budget when their ``max_generations`` is ``None``."""
-    if getattr(solver, "max_generations", "absent") is None:
-        return dataclasses.replace(solver, max_generations=int(n_generations))
-    return solver
 
 
 def minimise(
@@ -371,15 +379,17 @@ class RestartSchedule(NamedTuple):
 
     - ``first``: the solver of the first run (the caller's start, ``y0`` or a sample).
     - ``levels``: the solvers of the later runs, ``levels[j]`` with the population ``λ₀·2^j``;
-      each run starts from a fresh sample, and each has a ``sigma0`` (its initial step size,
-      scaled per run for BIPOP's small runs).
+      each run starts from a fresh sample.
     - ``bipop``: ``False``: IPOP, run ``k`` after the first on level ``k`` (Auger & Hansen 2005);
       ``True``: BIPOP, those runs interleaved with small-population runs (Hansen 2009).
+    - ``small_step``: ``(solver, factor) -> solver``, a small run's solver: its level's with the
+      initial step size scaled by ``factor`` (``0.01^v``; 1 for a large run).
     """
 
     first: AbstractSolver
     levels: tuple[AbstractSolver, ...]
     bipop: bool
+    small_step: Callable[[AbstractSolver, Array], AbstractSolver]
 
 
 class RestartState(NamedTuple):
@@ -403,8 +413,7 @@ def _minimise_flat(fn, solver, lower, upper, y0, key, max_evaluations):
     """One run, or, for a solver with a ``restart_schedule`` (CMA-ES's IPOP and BIPOP), its
     successive runs sharing the budget (:func:`_restarts`)."""
     n_dim = lower.shape[-1]
-    schedule = getattr(solver, "restart_schedule", None)
-    plan = None if schedule is None else schedule(n_dim, max_evaluations)
+    plan = solver.restart_schedule(n_dim, max_evaluations)
     first = solver if plan is None else plan.first
     fixed = first.min_evaluations(n_dim)
     if fixed > max_evaluations:
@@ -502,9 +511,7 @@ def _restarts(fn, plan: RestartSchedule, lower, upper, y0, key, max_evaluations:
         def run(c):
             def branch(i):
                 def go(states, hist):
-                    s = levels[i]
-                    s = dataclasses.replace(s, sigma0=s.sigma0 * factor)
-                    return one_run(s, k_run, allowance, states, i, hist)
+                    return one_run(plan.small_step(levels[i], factor), k_run, allowance, states, i, hist)
                 return go
 
             hist = (c["hist_f"], c["hist_n"], c["pos"], c["used"], c["best_f"])
@@ -540,10 +547,10 @@ def _run(fn, solver, lower, upper, y0, key, max_evaluations):
     """One run of ``solver`` within the budget: a ``lax.scan`` of the steps the budget allows."""
     n_dim = lower.shape[-1]
     n_steps = n_steps_for_budget(solver, n_dim, max_evaluations)
-    limit = getattr(solver, "max_generations", None)
+    limit = solver.generation_limit()
     if limit is not None:
         n_steps = min(n_steps, int(limit))
-    solver = with_generation_budget(solver, n_steps)
+    solver = solver.with_generation_budget(n_steps)
     _, max_per_step = solver.step_evaluations(n_dim)
     max_per_step += solver.final_evaluations(n_dim)
     fn = nan_to_inf(fn)

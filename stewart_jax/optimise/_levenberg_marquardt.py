@@ -13,7 +13,6 @@ within a few mm on the paper's problems; the caller can check ``OptimiseResult.p
 from __future__ import annotations
 
 import jax.numpy as jnp
-import optimistix as optx
 from jax.flatten_util import ravel_pytree
 
 from ._objective import AbstractOptimiser, Objective, needs_residuals
@@ -60,6 +59,8 @@ class LevenbergMarquardt(AbstractOptimiser):
 
         Pure and jittable; vmap it over ``args`` for Monte Carlo.
         """
+        import optimistix as optx  # here, not at the top: the batched LM of every command loads without it
+
         cost_fn = sum_of_squares(fn) if cost is None else cost
         sol = optx.least_squares(
             fn,

@@ -26,15 +26,15 @@ from typing import NamedTuple
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
-from ._driver import AbstractPopulationSolver, _check, draw, evaluate, init_population
+from ._driver import AbstractPopulationSolver, draw, evaluate, init_population
 
 
 class PSOState(NamedTuple):
-    """State of :class:`ParticleSwarm`: positions ``nests`` and ``velocities``
+    """State of :class:`ParticleSwarm`: positions ``population`` and ``velocities``
     (``Float[Array, "n d"]``), each particle's best ``personal_x``/``personal_f``, the swarm's
     best ``best_x``/``best_f``, ``n_evals`` and ``generation``."""
 
-    nests: Float[Array, "n d"]
+    population: Float[Array, "n d"]
     velocities: Float[Array, "n d"]
     personal_x: Float[Array, "n d"]
     personal_f: Float[Array, " n"]
@@ -47,17 +47,17 @@ class PSOState(NamedTuple):
 class ParticleSwarm(AbstractPopulationSolver):
     """PSO with inertia (Kennedy & Eberhart 1995; Shi & Eberhart 1998) over the box Ω.
 
-    - ``n_nests``: swarm size; 37, the cuckoo methods' population, so that every population
+    - ``population_size``: swarm size; 37, the cuckoo methods' population, so that every population
       method starts from the same points for a given key (common random numbers).
     - ``inertia`` (w) 0.7298, ``cognitive`` (c₁) and ``social`` (c₂) 1.49618: Clerc & Kennedy's
       constriction setting.
     - ``v_max``: velocity limit as a fraction of Ω's width per axis; 1.0 (Eberhart & Shi 2000).
     - ``target``, ``stall_generations``, ``stall_rtol``: as for every population method.
 
-    Evaluations: ``n_nests`` at init and per generation.
+    Evaluations: ``population_size`` at init and per generation.
     """
 
-    n_nests: int = 37
+    population_size: int = 37
     inertia: float = 0.7298
     cognitive: float = 1.49618
     social: float = 1.49618
@@ -67,19 +67,19 @@ class ParticleSwarm(AbstractPopulationSolver):
     stall_rtol: float = 1e-6
 
     def __check_init__(self):
-        _check(self, "inertia", (self.inertia >= 0) & (self.inertia < 1), "in [0, 1)")
-        _check(self, "cognitive", self.cognitive >= 0, ">= 0")
-        _check(self, "social", self.social >= 0, ">= 0")
-        _check(self, "v_max", self.v_max > 0, "> 0")
+        self.check_field("inertia", (self.inertia >= 0) & (self.inertia < 1), "in [0, 1)")
+        self.check_field("cognitive", self.cognitive >= 0, ">= 0")
+        self.check_field("social", self.social >= 0, ">= 0")
+        self.check_field("v_max", self.v_max > 0, "> 0")
 
     def init(self, fn, y0, lower, upper, key):
         del y0
-        pop = init_population(fn, lower, upper, key, self.n_nests)
-        return PSOState(pop.nests, jnp.zeros_like(pop.nests), pop.nests, pop.fitness, pop.best_x, pop.best_f,
-                        pop.n_evals, pop.generation)
+        pop = init_population(fn, lower, upper, key, self.population_size)
+        x = pop.population
+        return PSOState(x, jnp.zeros_like(x), x, pop.fitness, pop.best_x, pop.best_f, pop.n_evals, pop.generation)
 
     def step(self, fn, state, lower, upper, key):
-        x = state.nests
+        x = state.population
         n = x.shape[0]
         rnd = draw(key, r1=("uniform", x.shape), r2=("uniform", x.shape))
         limit = self.v_max * (upper - lower)
@@ -100,4 +100,4 @@ class ParticleSwarm(AbstractPopulationSolver):
         return PSOState(x_new, v, personal_x, personal_f, best_x, best_f, state.n_evals + n, state.generation + 1)
 
     def step_evaluations(self, n_dim):
-        return self.n_nests, self.n_nests
+        return self.population_size, self.population_size

@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ._driver import AbstractSolver, _check_target, evaluate, nan_to_inf, target_reached
+from ._driver import AbstractSolver, evaluate, nan_to_inf
 from ._result import RESULTS
 
 
@@ -168,13 +168,10 @@ class NelderMead(AbstractSolver):
     target: float | None = None
 
     def __check_init__(self):
-        _check_target(self)
-        for name in ("xtol", "ftol"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"NelderMead.{name} must be >= 0, got {getattr(self, name)!r}")
-        for name in ("initial_scale", "penalty"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"NelderMead.{name} must be > 0, got {getattr(self, name)!r}")
+        self.check_field("xtol", self.xtol >= 0, ">= 0")
+        self.check_field("ftol", self.ftol >= 0, ">= 0")
+        self.check_field("initial_scale", self.initial_scale > 0, "> 0")
+        self.check_field("penalty", self.penalty > 0, "> 0")
 
     def _coefficients(self, d: int) -> SimplexCoefficients:
         if self.coefficients is not None:
@@ -248,7 +245,7 @@ class NelderMead(AbstractSolver):
         return self._state(x, f, state.n_evals + 2 + jnp.where(shrink, d, 0), lower, upper, state.step)
 
     def terminate(self, state):
-        reached = target_reached(self, state)
+        reached = self.target_reached(state)
         return reached | state.converged, RESULTS.where(reached, RESULTS.target_reached, RESULTS.successful)
 
     def postprocess(self, fn, state, lower, upper):

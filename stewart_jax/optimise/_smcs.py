@@ -11,7 +11,7 @@ clip their own trial points to Ω.
 
 from __future__ import annotations
 
-from ._cuckoo import cs_generation
+from ._cuckoo import check_levy, check_n_worst, check_probability, cs_generation
 from ._driver import AbstractPopulationSolver, population_state
 from ._levy import BETA
 from ._simplex import SimplexCoefficients, simplex_on_worst
@@ -20,7 +20,7 @@ from ._simplex import SimplexCoefficients, simplex_on_worst
 class SMCS(AbstractPopulationSolver):
     """Simplex-modified cuckoo search (Wang et al. 2018, §2.1).
 
-    - ``n_nests``: 37, the population of Wang et al. (2018) §2.3 (a simplex in 36 dimensions), so that
+    - ``population_size``: 37, the population of Wang et al. (2018) §2.3 (a simplex in 36 dimensions), so that
       SMCS and VSA-SMCS compare at equal settings.
     - ``n_worst``: simplex operations per generation, one per worst nest; the paper does not
       say for SMCS: 12, the value it gives for VSA-SMCS, so that the comparison isolates the
@@ -30,10 +30,10 @@ class SMCS(AbstractPopulationSolver):
     - ``target``: stop once the best value is at or below it; ``None`` (run the whole budget).
     - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status.
 
-    Evaluations: ``n_nests`` at init; ``3·n_worst + 2·n_nests`` per generation.
+    Evaluations: ``population_size`` at init; ``3·n_worst + 2·population_size`` per generation.
     """
 
-    n_nests: int = 37
+    population_size: int = 37
     n_worst: int = 12
     pa: float = 0.25
     alpha: float = 0.01
@@ -43,13 +43,18 @@ class SMCS(AbstractPopulationSolver):
     stall_generations: int = 100
     stall_rtol: float = 1e-6
 
+    def __check_init__(self):
+        check_probability(self, "pa", self.pa)
+        check_levy(self, self.beta, self.alpha)
+        check_n_worst(self, self.n_worst)
+
     def step(self, fn, state, lower, upper, key):
-        nests, fit = simplex_on_worst(fn, state.nests, state.fitness, self.n_worst,
+        nests, fit = simplex_on_worst(fn, state.population, state.fitness, self.n_worst,
                                       self.coefficients)
         state = population_state(nests, fit, state.n_evals + 3 * self.n_worst,
                                  state.generation, state)
         return cs_generation(fn, state, lower, upper, key, self.alpha, self.beta, self.pa)
 
     def step_evaluations(self, n_dim):
-        n = 3 * self.n_worst + 2 * self.n_nests
+        n = 3 * self.n_worst + 2 * self.population_size
         return n, n

@@ -17,8 +17,11 @@ Step (1) is the initial population of 37 nests uniform in Ω.
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax.numpy as jnp
 
+from ._cuckoo import check_levy, check_n_worst, check_probability
 from ._driver import AbstractPopulationSolver, draw, evaluate, greedy, holds, population_state
 from ._levy import BETA, mantegna_from_normals
 from ._simplex import SimplexCoefficients, simplex_on_worst
@@ -33,7 +36,7 @@ def adaptive_step(sp, t, t_max, p: float, sp_1: float):
 class VSASMCS(AbstractPopulationSolver):
     """VSA-SMCS (Wang et al. 2018, §2.2–2.3).
 
-    Paper values: ``n_nests`` = 37, ``n_worst`` = 12, ``beta`` = 1.5; the constant 30 of
+    Paper values: ``population_size`` = 37, ``n_worst`` = 12, ``beta`` = 1.5; the constant 30 of
     eq. 11. The paper gives no value for the others; choices:
 
     - ``d`` (path coefficient of eq. 12): 1.0. Eq. 12 has no ``α·N(0, 1)`` factor (CS has
@@ -57,11 +60,11 @@ class VSASMCS(AbstractPopulationSolver):
     - ``coefficients``: Nelder–Mead coefficients (standard values).
     - ``stall_generations``, ``stall_rtol``: the convergence test reported in the status.
 
-    Evaluations: ``n_nests`` at init; ``2·n_nests + 3·n_worst`` per generation (110 with the
+    Evaluations: ``population_size`` at init; ``2·population_size + 3·n_worst`` per generation (110 with the
     paper's values). Every nest ever held lies in Ω.
     """
 
-    n_nests: int = 37
+    population_size: int = 37
     n_worst: int = 12
     d: float = 1.0
     sp_1: float = 0.1
@@ -83,13 +86,25 @@ class VSASMCS(AbstractPopulationSolver):
             raise ValueError(f"VSASMCS.sp_1 must be >= 0, got {self.sp_1!r}")
         if self.max_generations is not None and not self.max_generations >= 1:
             raise ValueError(f"VSASMCS.max_generations must be None or >= 1, got {self.max_generations!r}")
+        check_probability(self, "lu", self.lu)
+        check_levy(self, self.beta)
+        check_n_worst(self, self.n_worst)
+
+    def generation_limit(self) -> int | None:
+        return self.max_generations
+
+    def with_generation_budget(self, n_generations: int) -> VSASMCS:
+        """``T_max`` from the budget where ``max_generations`` is ``None``."""
+        if self.max_generations is None:
+            return dataclasses.replace(self, max_generations=int(n_generations))
+        return self
 
     def step(self, fn, state, lower, upper, key):
         if self.max_generations is None:
             raise ValueError("VSASMCS.max_generations (T_max) must be set; the driver "
                              "sets it from the evaluation budget")
-        n = self.n_nests
-        x = state.nests
+        n = self.population_size
+        x = state.population
         rnd = draw(key, zu=("normal", x.shape), zv=("normal", x.shape), lu=("uniform", (n,)),
                    new=("uniform", x.shape))
         # (2) adaptive Lévy path, eqs. 11-12
@@ -111,5 +126,5 @@ class VSASMCS(AbstractPopulationSolver):
         return state._replace(generation=state.generation + 1)
 
     def step_evaluations(self, n_dim):
-        n = 2 * self.n_nests + 3 * self.n_worst
+        n = 2 * self.population_size + 3 * self.n_worst
         return n, n

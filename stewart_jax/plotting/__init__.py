@@ -20,7 +20,8 @@ markers or dashed lines labelled "paper".
 - the FAST cable robot (Yin et al.): :func:`plot_fast_time_series`, :func:`plot_fast_table2`,
   :func:`plot_fast_focal_map` (workspace and frequency maps), :func:`plot_fast_frequencies`;
 - model discrepancy: :func:`plot_residuals_vs_factor`, :func:`plot_residuals` (PNG files),
-  :func:`plot_discrepancy_ranking`, :func:`plot_discrepancy_gap`, :func:`plot_cabin_record`.
+  :func:`plot_discrepancy_ranking`, :func:`plot_discrepancy_gap`, :func:`plot_cabin_record`;
+- compensation tables: :func:`plot_table_offsets`.
 """
 
 
@@ -40,6 +41,7 @@ from ._calibration import (
     plot_table_comparison as plot_table_comparison,
 )
 from ._common import show as show
+from ._compensation import plot_table_offsets as plot_table_offsets
 from ._discrepancy import (
     plot_cabin_record as plot_cabin_record,
     plot_discrepancy_gap as plot_discrepancy_gap,
