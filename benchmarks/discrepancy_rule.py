@@ -54,7 +54,9 @@ SIZES = (0.0, 0.1, 0.25, 0.5, 1.0)
 TEMP_NOISE_K = 0.01
 """σ of the recorded temperature (K), simulated and stated to the workflow."""
 RIGHT = {"strut_scale_2000ppm": "strut_scale", "tracker_scale": "tracker_scale", "blend": "strut_scale",
-         "thermal_expansion": "thermal_expansion"}
+         "thermal_expansion": "thermal_expansion", "load_compliance": "gravity_sag"}
+"""The registered effect whose physics is the simulated one (``gravity_sag`` is the generalised
+load-dependent compliance)."""
 OUTCOMES = ("named", "set", "registered_part", "partial", "unexplained", "discovered", "wrong", "missed",
             "false_alarm")
 
