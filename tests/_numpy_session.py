@@ -18,6 +18,20 @@ registers (its candidate list) and effects it does not:
 - ``strut_thermal_scale``: the encoder scale of one actuator only changes with temperature,
   reading = true change · ``(1 + κ (T − 20 °C))``.
 
+Near-equivalent and instrument effects (6-UPS; ``NEAR_EQUIVALENT``):
+
+- ``load_compliance``: each strut stretches by its axial compliance (struts of one design: one
+  value, 60–120 µm per payload weight, ±5 % from strut to strut) times its axial force from a
+  heavy payload whose centre of mass is off A's origin (``com`` mm in A), at a telescope
+  elevation (gravity along ``(0, −cos e, −sin e)`` in B): close to, not the same as, the
+  registered weight at A's origin along −z;
+- ``tracker_scale``: the instrument's distances are scaled by ``1 + s`` (``s`` = 270 ppm, the
+  refractive index of air not applied): exactly a strut scale equal on every strut plus a scaled
+  geometry;
+- ``blend``: a strut scale plus a reading error orthogonal (over the session's readings) to the
+  span of the geometry's and the strut scale's signatures, of a chosen size ``f`` relative to
+  the strut scale's signature outside the geometry's span (the size curve of the naming rule).
+
 The same three in crank form for the rotary hexapod (6-RUS, readings in rad): ``cyclic_crank``, a
 gear-tooth / encoder cyclic error of each crank reading ``A·sin(2π q / P + φ_i)`` (``A`` = 20 µrad,
 ``P`` = 4°, the tooth pitch of a 90-tooth gear); ``quadratic_reading``, ``c_i q²`` (10–20 µrad at
@@ -52,6 +66,8 @@ REGISTERED = {
               "tracker_misalignment"),
 }
 UNREGISTERED = ("cyclic_screw", "quadratic_reading", "strut_thermal_scale")
+NEAR_EQUIVALENT = ("load_compliance", "tracker_scale")
+"""6-UPS effects close to, or exactly equivalent to, a registered one up to the geometry."""
 """The strut families' effects that the registry lacks."""
 UNREGISTERED_ROTARY = ("cyclic_crank", "quadratic_reading", "crank_thermal_gain")
 """The same three ideas in crank form (6-RUS)."""
@@ -123,9 +139,32 @@ def _strut_statics(rot, d, v0, platform, base):
     return np.linalg.solve(np.swapaxes(g, -1, -2), wrench[..., None])[..., 0]
 
 
+def _loads(rot, d, v0, platform, base, com, elevation_rad):
+    """Axial tension per unit payload weight: the weight at ``com`` (mm in A) along
+    ``(0, −cos e, −sin e)`` in B (``e`` the elevation; 90°: along −z)."""
+    r = np.einsum("mjk,ik->mij", rot, platform)
+    s = r + d[:, None] + v0 - base
+    u = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    g = np.concatenate([u, np.cross(r, u)], -1)
+    down = np.array([0.0, -np.cos(elevation_rad), -np.sin(elevation_rad)])
+    arm = np.einsum("mjk,k->mj", rot, com)
+    wrench = np.concatenate([np.broadcast_to(down, arm.shape), np.cross(arm, down)], -1)
+    return np.linalg.solve(np.swapaxes(g, -1, -2), wrench[..., None])[..., 0]
+
+
 def _draw(rng, effect, family, n_legs=6):
     """True parameters of ``effect`` (physical units: mm, 1/K, rad, mm/s, dimensionless)."""
     sgn = rng.choice([-1.0, 1.0], n_legs)
+    if effect == "load_compliance":
+        return {"c": rng.uniform(60, 120) * rng.uniform(0.95, 1.05, n_legs) * UM,
+                "com": rng.uniform(150, 300, 3) * rng.choice([-1, 1], 3),
+                "elevation_deg": float(rng.uniform(30, 60))}
+    if effect == "tracker_scale":
+        return {"s": 270e-6}
+    if effect == "blend":
+        return {"k": sgn * rng.uniform(300e-6, 600e-6, n_legs)}
+    if effect == "strut_scale_2000ppm":
+        return {"k": np.full(n_legs, 2000e-6) + rng.uniform(-200e-6, 200e-6, n_legs)}
     if family == "6-RUS":
         p = _draw_rotary(rng, effect, sgn, n_legs)
         if p is not None:
@@ -218,13 +257,15 @@ def _reading_error(effect, p, q, temp):
 
 def session(family: str, geometry: dict, effect: str | None, rng: np.random.Generator, *, half: np.ndarray,
             n: int = 180, sigma_um: float = 0.1, sigma_arcsec: float = 0.1,
-            perturb_um: float = 30.0) -> Session:
+            perturb_um: float = 30.0, temp_noise_K: float | None = None, blend: float | None = None) -> Session:
     """Simulate one session of ``family`` (``"6-UPS"``: ``geometry`` has ``base``, ``platform``,
     ``v0``, ``lengths0``; ``"6-PSS"``: ``upper``, ``lower``, ``v0``, vertical sliders;
     ``"6-RUS"``: ``base`` (motors), ``platform``, ``v0``, ``crank_lengths``, ``rod_lengths``,
     ``azimuth`` (rad), ``crank_zero`` (rad)) with ``effect`` hidden; poses uniform in ``±half``
     (mm, rad). The perturbation moves joints and lengths by ``perturb_um`` and a crank zero by
-    ``perturb_um`` of arc at the crank's end; azimuths and ``v0`` stay nominal (not calibrated)."""
+    ``perturb_um`` of arc at the crank's end; azimuths and ``v0`` stay nominal (not calibrated).
+    ``temp_noise_K``: the recorded temperature is the one the struts see plus Gaussian noise of
+    this σ (K). ``blend``: the size ``f`` of the orthogonal part of effect ``"blend"`` (6-UPS)."""
     g = {k: np.array(v, dtype=float) for k, v in geometry.items()}
     for k in ("base", "platform", "upper", "lower"):
         if k in g:
@@ -244,6 +285,9 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
         length = np.linalg.norm(s, axis=-1)
         if effect == "gravity_sag":
             length = length - p["c"] * _strut_statics(rot, true[:, :3], g["v0"], g["platform"], g["base"])
+        if effect == "load_compliance":
+            length = length - p["c"] * _loads(rot, true[:, :3], g["v0"], g["platform"], g["base"], p["com"],
+                                              np.deg2rad(p["elevation_deg"]))
         if effect == "thermal_expansion":
             length = length / (1 + p["alpha"] * dt[:, None])  # the strut is longer: less extension needed
         q = length - g["lengths0"]
@@ -263,7 +307,7 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
         wn = np.einsum("mij,ij->mi", w, axis)
         q = wn - np.sqrt(rod**2 - np.sum(w**2, -1) + wn**2)
     reading = q.copy()
-    if effect in ("strut_scale", "stroke_scale", "gear_ratio"):
+    if effect in ("strut_scale", "stroke_scale", "gear_ratio", "strut_scale_2000ppm", "blend"):
         reading = q / (1 + p["k"])  # the actuator moves (1 + k) × what its encoder reads
     directions = _directions(q)
     if effect == "backlash":
@@ -273,15 +317,44 @@ def session(family: str, geometry: dict, effect: str | None, rng: np.random.Gene
     if effect in ("zero_offset", "crank_offset"):
         reading = reading + p["c"]
     reading = reading + _reading_error(effect, p, q, temp)
+    if effect == "blend":
+        p = {**p, "f": blend}
+        reading = reading + _orthogonal_part(g, rot, true, q, p["k"], blend, rng)
     measured = true.copy()
     if effect == "tracker_misalignment":
         r_m = rotation(p["rho"])
         measured[:, 3:] = angles(np.einsum("kj,mkl->mjl", r_m, rot))
         measured[:, :3] = (true[:, :3] + g["v0"] - p["tau"]) @ r_m - g["v0"]
+    if effect == "tracker_scale":
+        measured[:, :3] = (true[:, :3] + g["v0"]) * (1 + p["s"]) - g["v0"]
     measured[:, :3] += sigma_um * UM * rng.standard_normal((n, 3))
     measured[:, 3:] += sigma_arcsec * ARCSEC * rng.standard_normal((n, 3))
+    if temp_noise_K is not None:
+        temp = temp + temp_noise_K * rng.standard_normal(n)
     if effect == "cyclic_screw":
         p = {**p, "period_mm": p["lead"]}
     if effect == "cyclic_crank":
         p = {**p, "period_deg": CRANK_PERIOD_DEG}
     return Session(reading, measured, directions, temp, t, effect, p)
+
+
+def _orthogonal_part(g, rot, true, q, k, f, rng):
+    """A reading error orthogonal, per strut over the session's poses, to the span of the strut's
+    geometry signatures (its platform joint, base joint and zero-reading length: the reading's
+    derivatives) and its scale signature ``q``, of RMS ``f`` × the RMS of the scale error's part
+    outside the geometry's span. Its shape: a random quadratic form of the pose, a smooth
+    error no registered effect has."""
+    s = np.einsum("mjk,ik->mij", rot, g["platform"]) + true[:, None, :3] + g["v0"] - g["base"]
+    u = s / np.linalg.norm(s, axis=-1, keepdims=True)
+    x = true / np.maximum(np.ptp(true, axis=0), 1e-12)
+    out = np.zeros_like(q)
+    for i in range(q.shape[1]):
+        geo = np.concatenate([np.einsum("mk,mkj->mj", u[:, i], rot), -u[:, i], -np.ones((len(q), 1))], -1)
+        qg, _ = np.linalg.qr(geo)
+        scale_err = -k[i] * q[:, i]
+        outside = scale_err - qg @ (qg.T @ scale_err)
+        qa, _ = np.linalg.qr(np.concatenate([geo, q[:, i : i + 1]], -1))
+        v = np.einsum("mj,jk,mk->m", x, rng.standard_normal((6, 6)), x)
+        v = v - qa @ (qa.T @ v)
+        out[:, i] = f * np.linalg.norm(outside) * v / np.linalg.norm(v)
+    return out

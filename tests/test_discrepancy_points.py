@@ -92,7 +92,9 @@ def test_the_model_at_the_truth_reproduces_the_points(camera, setup, effect):
         pred = model.predict(model.base_initial, (), (), rows)
     else:
         e = dc.get_effect(model.name, effect)
-        pred = model.predict(model.base_initial, (e,), (jnp.asarray(s.truth[TRUTH_KEY[effect]]),), rows)
+        theta = np.asarray(s.truth[TRUTH_KEY[effect]])
+        theta = np.concatenate([theta, np.zeros(e.n_params - theta.size)])  # a weight at A's origin along −z
+        pred = model.predict(model.base_initial, (e,), (jnp.asarray(theta),), rows)
         without = model.predict(model.base_initial, (), (), rows)
         assert np.max(np.abs(np.asarray(without) - data.points)) > 5e-4
     # the registration from the noise-free references is exact, so the points are too; the

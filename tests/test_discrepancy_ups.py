@@ -78,13 +78,22 @@ def reports(model, hidden):
 # ---------------------------------------------------------------- independent physics (NumPy)
 
 
-def _statics(rot, origin, platform, base):
-    """Tension per unit payload weight: ``Σ t_i [u_i; r_i × u_i] = [0, 0, −1, 0, 0, 0]``."""
+def _statics(rot, origin, platform, base, wrench=(0.0, 0.0, -1.0, 0.0, 0.0, 0.0)):
+    """Tension per unit load: ``Σ t_i [u_i; r_i × u_i] = wrench`` (default: a unit weight at A's
+    origin along −z)."""
     r = np.einsum("mij,lj->mli", rot, platform)
     s = r + origin[:, None, :] - base
     u = s / np.linalg.norm(s, axis=-1, keepdims=True)
     g = np.concatenate([u, np.cross(r, u)], axis=-1)  # (m, strut, equation)
-    return np.stack([np.linalg.solve(gm.T, [0.0, 0.0, -1.0, 0.0, 0.0, 0.0]) for gm in g])
+    return np.stack([np.linalg.solve(gm.T, wrench) for gm in g])
+
+
+def _payload(t, rot, origin, platform, base):
+    """A payload's weight off A's origin in a tilted gravity direction: per-strut compliance on
+    the −z weight, one compliance for the x, y forces and the moments (per weight × 1 m)."""
+    sag = t[:6] * _statics(rot, origin, platform, base)
+    basis = np.eye(6)[[0, 1, 3, 4, 5]] * np.array([1, 1, 1000, 1000, 1000])[:, None]
+    return sag + sum(c * _statics(rot, origin, platform, base, w) for c, w in zip(t[6:], basis, strict=True))
 
 
 def _oracle(effect, t, mech, measured, d):
@@ -100,7 +109,7 @@ def _oracle(effect, t, mech, measured, d):
     return {
         "strut_scale": lambda: (length - l0) / (1.0 + t),
         "thermal_expansion": lambda: length / (1.0 + t * dt) - l0,
-        "gravity_sag": lambda: length - l0 - t * _statics(rot, origin, platform, base),
+        "gravity_sag": lambda: length - l0 - _payload(t, rot, origin, platform, base),
         "backlash": lambda: length - l0 + 0.5 * t * np.asarray(d.directions),
         "drift": lambda: length - l0 + t * np.asarray(d.time)[:, None],
     }.get(effect, lambda: length - l0)()
@@ -109,7 +118,7 @@ def _oracle(effect, t, mech, measured, d):
 ORACLE_THETA = {
     "strut_scale": np.array([3e-4, -2e-4, 1e-4, 5e-4, -4e-4, 2e-4]),
     "thermal_expansion": np.array([12e-6, 23e-6, 1e-6, 12e-6, 17e-6, 5e-6]),
-    "gravity_sag": np.array([0.02, 0.03, 0.01, 0.025, 0.015, 0.02]),
+    "gravity_sag": np.array([0.02, 0.03, 0.01, 0.025, 0.015, 0.02, 0.01, -0.015, 0.004, -0.003, 0.005]),
     "backlash": np.array([2e-3, 1e-3, 3e-3, 1e-3, 2e-3, 4e-3]),
     "drift": np.array([1e-6, -2e-6, 3e-7, 0.0, 5e-7, -1e-6]),
     "tracker_misalignment": np.array([1e-4, -2e-4, 3e-4, 0.05, -0.02, 0.03]),
@@ -295,3 +304,30 @@ def test_cli_help_lists_each_familys_effects():
     help_text = next(a.help for a in sub.choices["diagnose"]._actions if "--effects" in a.option_strings)
     assert "6-UPS: " + ", ".join(EFFECTS) in help_text
     assert "6-PSS: " + ", ".join(dc.effect_names("6-pss")) in help_text
+
+
+def test_temperature_noise_correction_is_the_dense_covariance(camera, model, rows):
+    """The held-out χ² drop for a noisy recorded temperature (rank-one update) against the dense
+    covariance ``s·I + u uᵀ`` inverted directly, with ``∂prediction/∂T`` by central differences."""
+    from stewart_jax.discrepancy._errors_in_variables import heldout_corrections
+
+    e = dc.get_effect(MODEL, "thermal_expansion")
+    t = ORACLE_THETA["thermal_expansion"] * 50  # a strong expansion: |u| comparable to the noise
+    nb = model.base_initial.shape[0]
+    z = np.zeros((2, nb + 6))
+    z[1, nb:] = t / np.asarray(e.scale)
+    w = np.asarray(model.whitener(model.base_initial, rows))
+    r = np.random.default_rng(1).standard_normal((2, 8 * 6))
+    sigma_t, s = 0.05, 1.7
+    got = heldout_corrections(model, (e,), z, w, r, rows, sigma_t, s)[0]
+
+    def pred(dtemp):
+        d = rows._replace(temperature=rows.temperature + dtemp)
+        return np.asarray(model.predict(camera.params, (e,), (jnp.asarray(t),), d))
+
+    g = (pred(1e-3) - pred(-1e-3)) / 2e-3
+    u = np.einsum("mij,mj->mi", w, g) * sigma_t
+    rr = r[1].reshape(8, 6)
+    dense = sum(rj @ np.linalg.solve(s * np.eye(6) + np.outer(uj, uj), rj) for rj, uj in zip(rr, u, strict=True))
+    assert np.max(np.abs(u)) > 0.3  # the correction is not negligible here
+    np.testing.assert_allclose(np.sum(rr**2) - got, s * dense, rtol=1e-6)

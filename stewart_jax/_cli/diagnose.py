@@ -47,6 +47,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         seed=args.seed,
         alpha=args.alpha,
         estimate_noise=args.estimate_noise,
+        temperature_std_k=args.temperature_std_k,
     )
     out = report.to_dict()
     out["file"] = args.file
@@ -312,6 +313,9 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
                    help="a rotary family's crank-reading noise σ (µrad)")
     p.add_argument("--estimate-noise", action="store_true",
                    help="estimate the noise scale from the base fit (F tests) instead of trusting σ")
+    p.add_argument("--temperature-std-k", type=float, default=0.0,
+                   help="σ of the recorded temperature (K): thermal candidates are tested with that error in "
+                   "their prediction (default 0: exact)")
     p.add_argument("--holdout-fraction", type=float, default=0.3, help="share of poses held out")
     p.add_argument("--seed", type=int, default=0, help="seed of the train/held-out split")
     p.add_argument("--alpha", type=float, default=0.05, help="false-alarm level of the detection test")

@@ -42,8 +42,8 @@ terms at the model's predicted reading, so it can be used to command moves.
 Limits: a term the library cannot express (a period outside the grid, an interaction of two
 pose components, a hysteresis loop wider than a step, a change at one instant) is not found;
 the held-out gap then stays open and the report says so. A period is resolved when the readings
-of the training poses span at least about two periods and are sampled at least ~4 times per
-period on average.
+of the training poses span at least about two periods and their median spacing is below half a
+period.
 """
 
 from __future__ import annotations
@@ -71,8 +71,8 @@ PERIOD_RATIO = 1.005
 """Ratio of neighbouring periods of the grid (a 0.25 % largest mismatch before refinement)."""
 MIN_PERIODS_IN_RANGE = 1.5
 """The longest period tried: the readings' range / this."""
-SAMPLES_PER_PERIOD = 4.0
-"""The shortest period tried: this many training readings per period on average."""
+NYQUIST_SAMPLES = 2.0
+"""The shortest period tried: this many times the readings' median spacing (Nyquist)."""
 
 _POSE = (("x", 0, 1.0, "mm"), ("y", 1, 1.0, "mm"), ("z", 2, 1.0, "mm"),
          ("rx", 3, 180 / math.pi, "deg"), ("ry", 4, 180 / math.pi, "deg"), ("rz", 5, 180 / math.pi, "deg"))
@@ -283,13 +283,20 @@ def supports_discovery(model: Any, data: Any) -> bool:
 
 def _periods(x: np.ndarray) -> np.ndarray:
     """The geometric grid of periods for a factor whose training values (per output) are ``x``
-    ``(m, k)``: from :data:`SAMPLES_PER_PERIOD` values per period to the range over
-    :data:`MIN_PERIODS_IN_RANGE`; empty for a constant factor."""
+    ``(m, k)``: from the shortest period the readings resolve to the range over
+    :data:`MIN_PERIODS_IN_RANGE`; empty for a constant factor.
+
+    NOTE: the shortest period is the Nyquist period of the readings' typical spacing, twice the
+    median gap between neighbouring distinct values (per output, the median over outputs): a
+    session's readings are scattered, so periods shorter than the mean spacing are resolved
+    where the gaps are small, and a uniformly sampled record gets its own Nyquist period."""
     span = float(np.median(np.ptp(x, axis=0)))
     if not span > 0:
         return np.zeros(0)
+    gaps = [np.diff(np.unique(col)) for col in np.asarray(x).T]
+    gap = float(np.median([np.median(g) for g in gaps if g.size]))
     p_max = span / MIN_PERIODS_IN_RANGE
-    p_min = SAMPLES_PER_PERIOD * span / x.shape[0]
+    p_min = min(NYQUIST_SAMPLES * gap, p_max)
     return p_min * PERIOD_RATIO ** np.arange(int(math.log(p_max / p_min) / math.log(PERIOD_RATIO)) + 1)
 
 
@@ -496,16 +503,15 @@ def discover(
     scale2: float,
     known: bool,
     alpha: float,
-) -> tuple[DiscoveredTerms, list[dict[str, Any]], np.ndarray, np.ndarray, bool]:
+) -> list[TermSpec]:
     """Forward sparse selection of term groups (see the module docstring) on one data set.
 
     Inputs (whitened with the base fit's whiteners ``w_tr``/``w_te``, ``(m, k, k)``): the
     base fit's training and held-out residuals ``white_tr``/``white_te`` (flattened), its
     held-out raw residuals ``raw_te`` ``(m_te, k)`` (library units), the base Jacobians
     ``jac_tr``/``jac_te`` (scaled base unknowns), the readings ``reading_tr``/``reading_te``
-    (library unit), the base fit's residual dof and noise scale. Returns the selected terms, one report
-    dict per group (JSON form), the change of the scaled base unknowns ``δ`` and the
-    coefficients (library units) of the final fit, and whether the held-out test passes."""
+    (library unit), the base fit's residual dof and noise scale. Returns the selected groups in
+    the order chosen (whether each earns its place is decided in ``_term_ensemble.py``)."""
     scale = reading_factor(model)[0]
     reading_tr, reading_te = reading_tr * scale, reading_te * scale
     k = reading_tr.shape[1]
@@ -514,11 +520,8 @@ def discover(
     n_groups = sum(len(f) for f in fams)
     level = alpha / max(n_groups, 1)
     chosen: list[TermSpec] = []
-    reports: list[dict[str, Any]] = []
     c_tr = np.zeros((n_tr, 0))
     c_te = np.zeros((n_te, 0))
-    sol = np.zeros(jac_tr.shape[1])
-    passed = False
     for _ in range(MAX_TERMS):
         a_tr = np.concatenate([jac_tr, c_tr], axis=1)
         q = basis(a_tr)
@@ -541,59 +544,6 @@ def discover(
         # r(z + δ) ≈ r + J δ; the terms enter as + C c with c = −(coefficient): see _columns.
         r_te = white_te + a_te @ sol
         t = heldout_chi2(r_te, a_tr, a_te)
-        p_te = heldout_p(t, n_te, dof0, scale2, known)
-        lw = np.linalg.inv(w_te)
-        raw_after = raw_te + np.einsum("mij,mj->mi", lw, (a_te @ sol).reshape(raw_te.shape))
-        gap_after = float(np.sqrt(np.mean(raw_after**2)) * model.report_factor)
-        reports.append({"spec": spec, "gap_after": gap_after, "heldout_p": float(p_te), "p_value": float(p),
-                        "bic_gain": float(gain)})
-        if p_te >= alpha:
-            passed = True
+        if heldout_p(t, n_te, dof0, scale2, known) >= alpha:
             break
-    nb = jac_tr.shape[1]
-    coef = -sol[nb:]
-    delta = sol[:nb]
-    std = _coefficient_std(np.concatenate([jac_tr, c_tr], axis=1), nb, scale2) if chosen else np.zeros(0)
-    terms = DiscoveredTerms(tuple(chosen), k)
-    return terms, _term_reports(terms, reports, coef, std, model), delta, coef, passed
-
-
-def _coefficient_std(a_tr: np.ndarray, nb: int, scale2: float) -> np.ndarray:
-    """The standard deviations of the final fit's term coefficients (after the ``nb`` base unknowns)."""
-    return np.sqrt(np.clip(np.diag(np.linalg.pinv(a_tr.T @ a_tr) * scale2)[nb:], 0, None))
-
-
-def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, model) -> list[dict[str, Any]]:
-    out, off = [], 0
-    rf = model.report_factor
-    units = term_units(model)
-    for s, step in zip(terms.specs, steps, strict=True):
-        c = _n_coef(s)
-        names = ("sin", "cos") if s.form == "periodic" else ("coefficient",)
-        coefs = []
-        for j in _legs(s, terms.k):
-            for i, nm in enumerate(names):
-                coefs.append({"leg": j + 1, "basis": nm, "value": float(coef[off + i] * rf),
-                              "std": float(std[off + i] * rf), "unit": _unit(s, units, j)})
-            off += c
-        d = {
-            "leg": None if s.leg is None else s.leg + 1,
-            "output": None if s.leg is None or units.names is None else units.names[s.leg],
-            "factor": s.factor,
-            "form": s.form,
-            "period": s.period,
-            "period_unit": period_unit(s, units),
-            "degree": s.degree,
-            "times": s.times or None,
-            "coefficients": coefs,
-            "gap_after": step["gap_after"],
-            "heldout_p": step["heldout_p"],
-            "p_value": step["p_value"],
-            "description": describe(s, units),
-        }
-        if s.form == "periodic":
-            amp = [math.hypot(coefs[2 * i]["value"], coefs[2 * i + 1]["value"]) for i in range(len(coefs) // 2)]
-            d["amplitude"] = amp
-            d["amplitude_unit"] = ", ".join(dict.fromkeys(units.report[j] for j in _legs(s, terms.k)))
-        out.append(d)
-    return out
+    return chosen

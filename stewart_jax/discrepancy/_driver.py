@@ -39,13 +39,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._discovery import challenge, describe, discover as run_discovery, supports_discovery, term_units
+from ._discovery import challenge, describe, supports_discovery, term_units
+from ._equivalence import equivalences, separated_by
 from ._fits import effect_slices, fit_candidates, fit_pairs, unpack
 from ._naming import DataSet, Decision, decide, pair_tests
 from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
 from ._statistics import where_analysis
 from ._subspace import absorbing_params, base_param_names, prediction_factor
+from ._term_ensemble import TermInputs, earn_place
 
 
 @eqx.filter_jit
@@ -124,6 +126,7 @@ def diagnose(
     alpha: float = 0.05,
     estimate_noise: bool = False,
     discover: bool = True,
+    temperature_std_k: float = 0.0,
 ) -> DiagnosisReport:
     """Run the discrepancy workflow on one data set (see the module docstring).
 
@@ -133,7 +136,11 @@ def diagnose(
     ``estimate_noise``: take the noise scale from the base fit's training residuals (F tests)
     instead of trusting the model's σ (χ² tests). ``discover``: when a discrepancy is detected
     that no candidate explains, search the open library of terms (``_discovery.py``).
+    ``temperature_std_k``: standard deviation of the recorded temperature (K); a candidate that
+    reads it is tested with that error in its prediction (``_errors_in_variables.py``).
     """
+    if not temperature_std_k >= 0:
+        raise ValueError(f"temperature_std_k must be ≥ 0 K, got {temperature_std_k}")
     n = model.n_rows(data)
     train_idx, test_idx = split_rows(n, holdout_fraction, seed)
     check_sizes(model, n, len(train_idx), len(test_idx))
@@ -142,7 +149,7 @@ def diagnose(
         raise ValueError(f"no candidate effect can be fitted to these data: {[s.to_dict() for s in skipped]}")
     train, test = model.take(data, train_idx), model.take(data, test_idx)
     return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped,
-                         discover=discover)[0]
+                         discover=discover, temperature_std_k=temperature_std_k)[0]
 
 
 def _stack(items):
@@ -159,6 +166,7 @@ def diagnose_many(
     estimate_noise: bool = False,
     skipped: Sequence[SkippedEffect] | None = None,
     discover: bool = True,
+    temperature_std_k: float = 0.0,
 ) -> list[DiagnosisReport]:
     """:func:`diagnose` on many train/held-out pairs at once (same shapes and columns; all
     fits batched). ``effects`` must be applicable to every data set."""
@@ -172,7 +180,8 @@ def diagnose_many(
         # NOTE: one data set at a time (the same compiled kernels): see the model's
         # ``batched_fits``.
         return [diagnose_many(model, effects, [tr], [te], alpha=alpha, estimate_noise=estimate_noise,
-                              skipped=skipped, discover=discover)[0] for tr, te in zip(trains, tests, strict=True)]
+                              skipped=skipped, discover=discover, temperature_std_k=temperature_std_k)[0]
+                for tr, te in zip(trains, tests, strict=True)]
     train_b, test_b = _stack(trains), _stack(tests)
     fits = fit_candidates(model, effects, train_b, test_b)
     nb = model.base_initial.shape[0]
@@ -180,7 +189,7 @@ def diagnose_many(
     slices = effect_slices(model, effects)
     known = not estimate_noise
 
-    sets = [DataSet(b, fits, model, effects, slices, nb, alpha, known, trains[b], tests[b])
+    sets = [DataSet(b, fits, model, effects, slices, nb, alpha, known, trains[b], tests[b], temperature_std_k)
             for b in range(len(trains))]
     decisions = [decide(ds) for ds in sets]
     # NOTE: the named candidate is compared with every other significant one by fitting both
@@ -242,6 +251,8 @@ class _Naming(NamedTuple):
     additional: list[str]
     cands: tuple[Candidate, ...]
     notes: list[str]
+    demoted: int | None = None
+    equivalences: list[dict[str, Any]] = []
 
 
 def _settle_name(ds: DataSet, dec: Decision, discover: bool) -> _Naming:
@@ -263,7 +274,7 @@ def _settle_name(ds: DataSet, dec: Decision, discover: bool) -> _Naming:
     # record: a frequency change over a long record) is far from linear there, so its candidates
     # are not contested: their own (nonlinear) fits passed the held-out test.
     if a is None or not discover or not supports_discovery(model, ds.train) or model.effect_grid(effects) is not None:
-        return _Naming(a, indist, additional, cands, notes)
+        return _one_cause(ds, dec, _Naming(a, indist, additional, cands, notes))
     jac_tr, w_tr = np.asarray(ds.fits.jac_tr[ds.b]), np.asarray(ds.fits.w_tr[ds.b])
     # NOTE: terms of a reading are evaluated at the base fit's predicted reading, not the
     # measured one: the difference is the residual itself, which a term would then fit.
@@ -288,7 +299,31 @@ def _settle_name(ds: DataSet, dec: Decision, discover: bool) -> _Naming:
         cands = tuple(dataclasses.replace(c, explains=False) if j == i else c for j, c in enumerate(cands))
     if named != a:  # the pair tests were against the contested one
         return _Naming(named, [], [], cands, notes)
-    return _Naming(a, indist, additional, cands, notes)
+    return _one_cause(ds, dec, _Naming(a, indist, additional, cands, notes))
+
+
+def _one_cause(ds: DataSet, dec: Decision, name: _Naming) -> _Naming:
+    """One name only when nothing else explains as well: a name that needs further effects is
+    partial (``demoted``); a candidate that reproduces the named one's signature within the noise
+    and passes the held-out test joins ``indistinguishable`` (``_equivalence.py``)."""
+    a, effects = name.named, ds.effects
+    if a is not None and name.additional:
+        # NOTE: a name whose fit needs further effects to close the gap is one part of the
+        # cause, not the cause: a near-equivalent outside effect fitted by the nearest
+        # registered one leaves exactly this (and more noise hides the rest of the gap).
+        note = (f"{effects[a].name} passes the held-out test, but {', '.join(name.additional)} explain(s) "
+                f"significantly more on top of it: a partial explanation, no single cause is named")
+        return name._replace(named=None, indistinguishable=[], notes=[*name.notes, note], demoted=a)
+    if a is None:
+        return name
+    others = [i for i, c in enumerate(name.cands) if i != a and c.identifiable_rank > 0]
+    equiv = equivalences(a, others, [e.name for e in effects], np.asarray(ds.fits.jac_tr[ds.b]), ds.nb, ds.slices,
+                         np.asarray(ds.fits.z[ds.b]), dec.level, dec.scale2)
+    by_name = {c.effect: c for c in name.cands}
+    indist = list(name.indistinguishable) + [
+        r["effect"] for r in equiv if r["named_outside_reproduced"] and r["effect"] not in name.indistinguishable
+        and by_name[r["effect"]].heldout_p >= ds.alpha]
+    return name._replace(indistinguishable=indist, equivalences=equiv)
 
 
 def _noise_floors(ds: DataSet, scale2: float) -> tuple[float, float]:
@@ -323,7 +358,8 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
     model, b, fits = ds.model, ds.b, ds.fits
     w_tr, w_te, raw_te = np.asarray(fits.w_tr[b]), np.asarray(fits.w_te[b]), np.asarray(fits.raw_te[b])
     raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, ds.train))
-    terms, discovered, delta, coef, passed = run_discovery(
+    gap_before = float(np.sqrt(np.mean(raw_te[0] ** 2)) * model.report_factor)
+    terms, discovered, term_fit, passed = earn_place(TermInputs(
         model=model, train=ds.train, test=ds.test,
         reading_tr=np.asarray(model.observed(ds.train)) - raw_tr,
         reading_te=np.asarray(model.observed(ds.test)) - raw_te[0],
@@ -332,7 +368,8 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
         raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=np.asarray(fits.jac_tr[b])[:, :ds.nb],
         jac_te=np.asarray(fits.jac_te[b])[:, :ds.nb], dof0=dec.dof0, scale2=dec.scale2, known=ds.known,
         alpha=ds.alpha,
-    )
+    ), gap_before)
+    delta, coef = term_fit.delta, term_fit.coef
     if not passed:
         return _Discovered(discovered, None, None)
     fm = FittedModel(model, (terms.effect(model),), base_fm.base + model.base_scale * jnp.asarray(delta),
@@ -371,10 +408,12 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
         dataclasses.replace(c, gap_share=float((gap_before**2 - c.heldout_rms**2) / excess) if excess > 0 else 0.0)
         for c in name.cands
     )
+    demoted = None if name.demoted is None else ds.effects[name.demoted].name
     partial = [
         {"effect": c.effect, "gap_share": c.gap_share, "heldout_rms": c.heldout_rms, "heldout_p": c.heldout_p}
+        | ({"needs": list(name.additional)} if c.effect == demoted else {})
         for c in sorted(cands, key=lambda c: -c.gap_share)
-        if dec.detected and a is None and c.significant and not c.explains
+        if dec.detected and a is None and c.significant and (not c.explains or c.effect == demoted)
     ]
     found = _Discovered([], None, None)
     if dec.detected and a is None and discover and supports_discovery(model, ds.train):
@@ -404,6 +443,9 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
         partial=partial,
         absorbed_by=_absorbed_by(ds, cands),
         indistinguishable_from=name.indistinguishable,
+        equivalences=name.equivalences,
+        separated_by={n: separated_by(n) for n in ([ds.effects[a].name, *name.indistinguishable]
+                                                   if a is not None and name.indistinguishable else [])},
         additional_effects=name.additional,
         ranking=sorted(cands, key=lambda c: (c.identifiable_rank > 0, c.score), reverse=True),
         absorbed=[c.effect for c in cands if c.identifiable_rank == 0],

@@ -68,3 +68,4 @@ def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: PS
 
 drift = register_shared("drift", MODEL_NAME, "mm")
 tracker_misalignment = register_shared("tracker_misalignment", MODEL_NAME, "mm")
+tracker_scale = register_shared("tracker_scale", MODEL_NAME, "mm")

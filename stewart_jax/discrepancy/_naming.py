@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ._errors_in_variables import heldout_corrections
 from ._fits import BatchFits
 from ._registry import AbstractDiscrepancyModel, Effect
 from ._report import Candidate
@@ -63,7 +64,7 @@ class DataSet:
     """One data set of a batch as the steps after the fits read it: its index ``b`` in ``fits``,
     the model, the candidates ``effects`` with their columns ``slices`` among the augmented
     unknowns (``nb`` base unknowns first), the level ``alpha``, whether the noise is ``known``,
-    and its training and held-out rows."""
+    its training and held-out rows, and the stated σ of a recorded temperature (K)."""
 
     b: int
     fits: BatchFits
@@ -75,6 +76,7 @@ class DataSet:
     known: bool
     train: Any = None
     test: Any = None
+    temperature_std_k: float = 0.0
 
 
 class _BaseTest(NamedTuple):
@@ -113,9 +115,10 @@ def _base_test(ds: DataSet) -> _BaseTest:
                      t0, p_detect)
 
 
-def _candidate_tests(ds: DataSet, base: _BaseTest, i: int) -> dict[str, Any]:
+def _candidate_tests(ds: DataSet, base: _BaseTest, i: int, eiv: float = 0.0) -> dict[str, Any]:
     """Name: candidate ``i``'s nested test against the base, its BIC score, its held-out test and
-    how much of its signature the base absorbs (the fields of :class:`Candidate` but the verdicts)."""
+    how much of its signature the base absorbs (the fields of :class:`Candidate` but the verdicts).
+    ``eiv``: the held-out χ² the recorded temperature's noise accounts for (``_errors_in_variables.py``)."""
     e, known, g_cols = ds.effects[i], ds.known, np.arange(ds.nb)
     jac_tr, jac_te, chi2 = base.jac_tr, base.jac_te, base.chi2
     n_tr, n_te = jac_tr.shape[0], jac_te.shape[0]
@@ -125,7 +128,7 @@ def _candidate_tests(ds: DataSet, base: _BaseTest, i: int) -> dict[str, Any]:
     dof_c = n_tr - base.rank_g - df
     p = nested_p(chi2[0], chi2[i + 1], df, dof_c, known)
     bic_c = bic(chi2[i + 1], base.rank_g + df, n_tr, known)
-    t = heldout_chi2(base.white_te[i + 1], jac_tr[:, cols], jac_te[:, cols])
+    t = heldout_chi2(base.white_te[i + 1], jac_tr[:, cols], jac_te[:, cols]) - eiv
     theta = np.asarray(ds.fits.z[ds.b, i + 1])[ds.slices[i]] * np.asarray(e.scale) * np.asarray(e.report_factor)
     return dict(
         effect=e.name,
@@ -151,7 +154,9 @@ def decide(ds: DataSet) -> Decision:
     over the testable ones, those of them that pass the held-out test explain, and the best
     explaining one by BIC is named when a discrepancy is detected."""
     base = _base_test(ds)
-    stats = [_candidate_tests(ds, base, i) for i in range(len(ds.effects))]
+    eiv = heldout_corrections(ds.model, ds.effects, np.asarray(ds.fits.z[ds.b]), np.asarray(ds.fits.w_te[ds.b]),
+                              base.white_te, ds.test, ds.temperature_std_k, base.scale2)
+    stats = [_candidate_tests(ds, base, i, eiv[i]) for i in range(len(ds.effects))]
     testable = [i for i, c in enumerate(stats) if c["identifiable_rank"] > 0]
     level = ds.alpha / max(len(testable), 1)
     significant = tuple(i for i in testable if stats[i]["p_value"] < level)

@@ -144,13 +144,20 @@ class DiagnosisReport:
     - ``model``: the model's registry name.
     - ``detected``, ``detect_statistic``, ``detect_dof``, ``detect_p_value``: the held-out test
       of the base model against the noise alone.
-    - ``named_effect``: the named candidate, one that explains the discrepancy (``None`` unless
-      ``explained``); ``indistinguishable_from``: candidates the data cannot reject against it;
+    - ``named_effect``: the named candidate, one that explains the discrepancy with no further
+      effect (``None`` unless ``explained``); the summary names it as the single cause only when
+      ``indistinguishable_from`` (candidates the data cannot reject against it) is empty;
       ``additional_effects``: candidates that explain more on top of it.
     - ``explained``: a candidate (or, with ``discovered``, a set of discovered terms) closes the
       held-out gap to the noise floor.
     - ``partial``: significant candidates that do not close the gap, each a dict with
-      ``effect``, ``gap_share`` (see :class:`Candidate`), ``heldout_rms``, ``heldout_p``.
+      ``effect``, ``gap_share`` (see :class:`Candidate`), ``heldout_rms``, ``heldout_p``; and a
+      candidate that closes it only with further effects (``needs``: those effects).
+    - ``equivalences``: per other identifiable candidate, how much of its fitted signature lies
+      outside base + the named one and of the named one's outside base + it, and whether each
+      reproduces the other (``_equivalence.py``).
+    - ``separated_by``: when the named effect is indistinguishable from others, per member of
+      the set the measurement that would tell it apart.
     - ``absorbed_by``: per completely absorbed candidate, the base parameters a change of which
       reproduces it.
     - ``discovered``: terms found by the open search when no candidate explains (dicts, see
@@ -209,6 +216,8 @@ class DiagnosisReport:
     partial: list[dict[str, Any]] = dataclasses.field(default_factory=list)
     absorbed_by: dict[str, list[str]] = dataclasses.field(default_factory=dict)
     discovered: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    equivalences: list[dict[str, Any]] = dataclasses.field(default_factory=list)
+    separated_by: dict[str, str] = dataclasses.field(default_factory=dict)
 
     def summary(self) -> list[str]:
         """The verdict in plain sentences (what ``stewart-jax diagnose`` prints)."""
@@ -222,16 +231,23 @@ class DiagnosisReport:
                          "(mm and degrees) and that the model applies")
         elif not self.detected:
             lines.append(f"no discrepancy detected (held-out p = {self.detect_p_value:.3g}); {gap}")
+        elif self.named_effect is not None and self.indistinguishable_from:
+            names = ", ".join([self.named_effect, *self.indistinguishable_from])
+            lines.append(f"explained, but by any of {names}: indistinguishable for these data, no single cause; "
+                         f"{gap}")
+            lines += [f"to tell {n} apart: {how}" for n, how in self.separated_by.items()]
         elif self.named_effect is not None:
-            indist = (f" (indistinguishable from {', '.join(self.indistinguishable_from)})"
-                      if self.indistinguishable_from else "")
-            lines.append(f"named: {self.named_effect}{indist}; it closes the gap: {gap}")
+            lines.append(f"named: {self.named_effect}; it closes the gap and nothing else explains as well: {gap}")
         elif self.explained and self.discovered:
             lines.append(f"no candidate explains the discrepancy; discovered terms close the gap: {gap}")
         else:
             lines.append(f"a discrepancy is present that no candidate explains (held-out p = "
                          f"{self.detect_p_value:.3g}); {gap}")
         for p in self.partial:
+            if p.get("needs"):
+                lines.append(f"partial explanation: {p['effect']} passes the held-out test, but "
+                             f"{', '.join(p['needs'])} explain(s) significantly more on top of it")
+                continue
             if p["gap_share"] > 0:
                 lines.append(f"partial explanation: {p['effect']} removes {100 * p['gap_share']:.0f} % of the gap "
                              f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
@@ -260,6 +276,8 @@ class DiagnosisReport:
                 "absorbed_by": self.absorbed_by,
                 "summary": self.summary(),
                 "indistinguishable_from": self.indistinguishable_from,
+                "equivalences": self.equivalences,
+                "separated_by": self.separated_by,
                 "ranking": [c.to_dict() for c in self.ranking],
                 "gap_before": self.gap_before,
                 "gap_after": self.gap_after,

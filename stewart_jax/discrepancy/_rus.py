@@ -130,3 +130,4 @@ def thermal_expansion(theta: Float[Array, "6"], data: CalibrationData, state: RU
 
 
 tracker_misalignment = register_shared("tracker_misalignment", MODEL_NAME, "rad")
+tracker_scale = register_shared("tracker_scale", MODEL_NAME, "rad")

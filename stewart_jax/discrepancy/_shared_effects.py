@@ -2,7 +2,8 @@
 
 ``backlash`` and ``drift`` change only the readings' ``offset`` (the actuator's lost motion, a
 reading that creeps during the run); ``tracker_misalignment`` changes only the measured poses
-(the instrument frame's rotation and shift). Each is written once here, on a model state with
+(the instrument frame's rotation and shift) and ``tracker_scale`` only their positions (the
+instrument's distance scale). Each is written once here, on a model state with
 ``offset`` (``(m, 6)``, the reading's unit), ``poses`` (``(m, 6)``, mm, rad) and ``v0`` (mm), and a
 family's model registers it with :func:`register_shared` at the place in its list of effects
 where it belongs, in the unit of its readings (µm for a stroke, µrad for a crank angle).
@@ -56,8 +57,25 @@ def tracker_misalignment(theta: Float[Array, "6"], data: CalibrationData, state:
     return state._replace(poses=jnp.concatenate([d, euler_angles(rot)], axis=-1))
 
 
+def tracker_scale(theta: Float[Array, "1"], data: CalibrationData, state: Any) -> Any:
+    """The instrument's distances are scaled by ``1 + s`` (``s = theta[0]``, dimensionless; e.g.
+    the refractive index of air not applied to a laser tracker's interferometer, ~270 ppm at
+    sea level): a measured position is ``x_M = (1 + s)·x`` about the instrument frame's origin,
+    so the true platform position is ``d + v0 = (d' + v0) / (1 + s)``; angles are not scaled.
+    A shift of the scaling's centre is a shift of the frame (``tracker_misalignment``). Acts on
+    the measurement only.
+
+    Exact equivalence: for a strut hexapod a common scale of every position is a scale of the
+    geometry times one scale of every strut length, so ``tracker_scale`` ≡ ``strut_scale`` with
+    equal ``k_i`` + geometry; only a reference length measured by the tracker (a calibrated
+    scale bar) or by the struts separates them."""
+    d = (state.poses[:, :3] + state.v0) / (1.0 + theta[0]) - state.v0
+    return state._replace(poses=jnp.concatenate([d, state.poses[:, 3:]], axis=-1))
+
+
 def register_shared(name: str, model: str, reading_unit: str) -> Effect:
-    """Register the shared effect ``name`` (``"backlash"``, ``"drift"``, ``"tracker_misalignment"``)
+    """Register the shared effect ``name`` (``"backlash"``, ``"drift"``, ``"tracker_misalignment"``,
+    ``"tracker_scale"``)
     for ``model``, whose readings are in ``reading_unit`` (``"mm"``: parameters reported in µm,
     µm/h; ``"rad"``: in µrad, µrad/h)."""
     size, unit, per = (UM, "µm", UM) if reading_unit == "mm" else (1e-5, "µrad", URAD)  # scale, report unit
@@ -71,4 +89,7 @@ def register_shared(name: str, model: str, reading_unit: str) -> Effect:
         return register_effect(model, name, n_params=6, scale=(10 * ARCSEC,) * 3 + (UM,) * 3, unit="″,″,″,µm,µm,µm",
                                report_factor=(1 / ARCSEC,) * 3 + (1 / UM,) * 3, acts_on="measurement",
                                )(tracker_misalignment)
-    raise ValueError(f"no shared effect {name!r}; shared: backlash, drift, tracker_misalignment")
+    if name == "tracker_scale":
+        return register_effect(model, name, n_params=1, scale=1e-4, unit="ppm", report_factor=1e6,
+                               acts_on="measurement")(tracker_scale)
+    raise ValueError(f"no shared effect {name!r}; shared: backlash, drift, tracker_misalignment, tracker_scale")

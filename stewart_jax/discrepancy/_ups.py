@@ -72,23 +72,37 @@ def ups_readings(state: UPSState) -> Float[Array, "m 6"]:
 
 
 def gravity_axial_loads(
-    platform: Float[Array, "6 3"], base: Float[Array, "6 3"], v0: Float[Array, "3"], poses: Float[Array, "m 6"]
+    platform: Float[Array, "6 3"], base: Float[Array, "6 3"], v0: Float[Array, "3"], poses: Float[Array, "m 6"],
+    wrench: Float[Array, "6"] | None = None,
 ) -> Float[Array, "m 6"]:
-    """Axial force in each strut per unit payload weight (tension > 0, dimensionless) when a
-    payload's weight ``W`` acts at A's origin along −z of B.
+    """Axial force in each strut (tension > 0) per unit of a load ``wrench`` on the platform,
+    ``[F; M]`` in B's axes with the moment about A's origin (default ``[0, 0, −1, 0, 0, 0]``: a
+    payload's unit weight acting at A's origin along −z of B; dimensionless).
 
     With ``u_i`` the unit vector of strut ``i`` from its base joint to its platform joint and
     ``r_i = T·platform_i`` the platform joint relative to A's origin (B's axes), strut tension
     ``t_i`` pulls the platform with ``−t_i u_i``; the platform's equilibrium (force, and moment
-    about A's origin) is ``Σ t_i [u_i; r_i × u_i] = [0, 0, −W, 0, 0, 0]``, six equations for the
-    six tensions."""
+    about A's origin) is ``Σ t_i [u_i; r_i × u_i] = wrench``, six equations for the six
+    tensions."""
     rot = rotation_matrix(poses[:, 3:])
     r = jnp.einsum("mjk,ik->mij", rot, platform)
     strut = r + poses[:, None, :3] + v0 - base
     u = strut / jnp.linalg.norm(strut, axis=-1, keepdims=True)
     g = jnp.concatenate([u, jnp.cross(r, u)], axis=-1)  # (m, strut, 6): the columns of the statics matrix
-    wrench = jnp.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0])
+    wrench = jnp.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0]) if wrench is None else wrench
     return solve(jnp.swapaxes(g, -1, -2), jnp.broadcast_to(wrench, poses.shape))  # not LAPACK: see stewart_jax._linalg
+
+
+PAYLOAD_WRENCHES = (
+    (0.0, 0.0, -1.0, 0.0, 0.0, 0.0),
+    (1.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+    (0.0, 1.0, 0.0, 0.0, 0.0, 0.0),
+    (0.0, 0.0, 0.0, 1000.0, 0.0, 0.0),
+    (0.0, 0.0, 0.0, 0.0, 1000.0, 0.0),
+    (0.0, 0.0, 0.0, 0.0, 0.0, 1000.0),
+)
+"""The load wrenches of ``gravity_sag``: a unit weight along −z at A's origin, unit forces along x
+and y, unit moments about x, y, z (one weight × 1 m, in weight·mm)."""
 
 
 # NOTE: the report's derived errors and factors are evaluated outside the fits; compiled, they
