@@ -1,6 +1,7 @@
 """Shared fixtures. Geometries and pose grids are module-level so that jitted functions
 compile once per shape across the whole session."""
 
+import gc
 import json
 import os
 from collections import Counter
@@ -79,6 +80,45 @@ def pytest_sessionfinish(session, exitstatus):
                         "tests/conftest.py runs the longest first. Refresh: make durations",
                "seconds": dict(sorted(seconds.items(), key=lambda kv: -kv[1]))}
     write_text_atomic(str(DURATIONS), json.dumps(payload, indent=1) + "\n")
+
+
+# Above this many memory mappings a test worker drops JAX's compiled programs (see below).
+MAPPINGS_BEFORE_CLEARING = 25_000
+
+
+def _memory_mappings() -> int:
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            return sum(1 for _ in f)
+    except OSError:  # not Linux: no such limit to stay under
+        return 0
+
+
+def _release_compiled_programs() -> None:
+    jax.clear_caches()
+    gc.collect()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _release_programs_after_each_file():
+    """Drop JAX's compiled programs after each test file, and after any test that leaves the
+    worker above ``MAPPINGS_BEFORE_CLEARING`` memory mappings.
+
+    NOTE: every XLA:CPU executable keeps its machine code in three memory mappings per compiled
+    object (code, read-only data, data). A test worker that kept all of a long run's programs
+    reached 48 000 mappings, and one large program later passed the kernel's limit
+    (``vm.max_map_count``, 65 530 by default): LLVM's allocation failed and the worker died with a
+    segmentation fault inside XLA's compilation (once an abort in its serialisation), after which
+    pytest-xdist waited forever for it. One file of the FAST cabin record alone rises by 40 000."""
+    yield
+    _release_compiled_programs()
+
+
+@pytest.fixture(autouse=True)
+def _release_programs_when_near_the_limit():
+    yield
+    if _memory_mappings() > MAPPINGS_BEFORE_CLEARING:
+        _release_compiled_programs()
 
 
 @pytest.fixture(scope="session")
