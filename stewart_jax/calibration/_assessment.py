@@ -49,8 +49,8 @@ from ._determined import (
     total_std,
     within_prior,
 )
-from ._identifiability import identifiability_report, pose_noise_covariance, stroke_noise_covariance
-from ._problem import CalibrationData
+from ._identifiability import identifiability_report, noise_and_jacobian
+from ._problem import CalibrationData, stroke_residuals_compiled
 
 RANK_RTOL = 1e-9
 """Singular values below this fraction of the largest count as zero (the rank)."""
@@ -224,13 +224,10 @@ def assess_calibration(
 def _determination(calibrated, poses, sigma_um, sigma_arcsec):
     """The determined directions of the pose model, its stroke Jacobian ``(m, 6, n)`` and the
     stroke noise covariance ``(m, 6, 6)`` (whitening by the pose noise through ``J_P``)."""
-    from ._identifiability import identification_jacobian
-
     m, n = len(poses), calibrated.n_params
-    noise = np.asarray(stroke_noise_covariance(calibrated, jnp.asarray(poses),
-                                               pose_noise_covariance(sigma_um, sigma_arcsec)))
+    noise, jac = noise_and_jacobian(calibrated, poses, sigma_um, sigma_arcsec)
     noise = noise + np.eye(6) * 1e-12 * np.trace(noise, axis1=1, axis2=2)[:, None, None] / 6
-    jac = np.asarray(eqx.filter_jit(identification_jacobian)(calibrated, jnp.asarray(poses))).reshape(m, 6, n)
+    jac = jac.reshape(m, 6, n)
     jw = np.linalg.solve(np.linalg.cholesky(noise), jac).reshape(6 * m, n)
     return within_prior(determine(jw, prior_scale(calibrated.param_units)), jac, noise), jac, noise
 
@@ -271,25 +268,26 @@ def hold_undetermined(
     """``params`` with the directions the data do not determine held at ``nominal``'s values
     (``_determined.py``): the least-squares fit of the stroke residual over the determined
     directions, from the projection of ``params``. The determination is made at ``nominal``."""
-    from ._identifiability import identification_jacobian
-    from ._problem import stroke_residuals
-
     poses = np.asarray(data.poses)
     det, _, _ = _determination(nominal, poses, sigma_um, sigma_arcsec)
     u0 = np.asarray(nominal.params)
     if det.n_determined == nominal.n_params:
         return np.asarray(params)
 
-    residual_fn = eqx.filter_jit(lambda u, d, mech: stroke_residuals(u, d, mech))
-    jacobian_fn = eqx.filter_jit(lambda u, p, mech: -identification_jacobian(mech.with_params(u), p))
-
     def residuals(u):
-        return np.asarray(residual_fn(jnp.asarray(u), data, nominal))
+        return np.asarray(stroke_residuals_compiled(jnp.asarray(u), data, nominal))
 
     def jacobian(u):
-        return np.asarray(jacobian_fn(jnp.asarray(u), jnp.asarray(poses), nominal))
+        return np.asarray(_residual_jacobian_jit(jnp.asarray(u), jnp.asarray(poses), nominal))
 
     return refine_in_subspace(residuals, jacobian, u0, np.asarray(params), det)
+
+
+@eqx.filter_jit
+def _residual_jacobian_jit(u, poses, mechanism):
+    from ._identifiability import identification_jacobian
+
+    return -identification_jacobian(mechanism.with_params(u), poses)
 
 
 def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> Float[np.ndarray, "m 6"]:
@@ -312,16 +310,13 @@ def _implied_pose_errors(mechanism, poses, readings):
 def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> tuple[float, float]:
     """``min_δ |W (r − A δ)|²`` (the whitened residual with every parameter direction removed)
     and ``|W r|²`` (the whitened residual itself)."""
-    from ._identifiability import identification_jacobian
-
     m, n = residuals.shape[0], calibrated.n_params
-    cov = np.asarray(stroke_noise_covariance(calibrated, jnp.asarray(poses),
-                                             pose_noise_covariance(sigma_um, sigma_arcsec)))
+    cov, a = noise_and_jacobian(calibrated, poses, sigma_um, sigma_arcsec)
     # a tiny ridge keeps a pose whose covariance is singular (one sigma zero) whitenable
     cov = cov + np.eye(6) * 1e-12 * np.trace(cov, axis1=1, axis2=2)[:, None, None] / 6
     chol = np.linalg.cholesky(cov)
     rw = np.linalg.solve(chol, residuals[..., None])[..., 0].reshape(-1)
-    a = np.asarray(identification_jacobian(calibrated, jnp.asarray(poses))).reshape(m, 6, n)
+    a = a.reshape(m, 6, n)
     aw = np.linalg.solve(chol, a).reshape(6 * m, n)
     u, _, _ = np.linalg.svd(aw, full_matrices=False)
     u = u[:, :rank]

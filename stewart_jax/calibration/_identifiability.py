@@ -51,6 +51,23 @@ def stroke_noise_covariance(
     return jp @ pose_cov @ jnp.swapaxes(jp, -1, -2)
 
 
+def noise_and_jacobian(
+    geometry: AbstractMechanism, poses: Float[Array, "m 6"], sigma_um: float, sigma_arcsec: float
+) -> tuple[Float[np.ndarray, "m 6 6"], Float[np.ndarray, "6m n"]]:
+    """The stroke noise covariance and the identification Jacobian at ``poses``, as NumPy arrays,
+    from one compiled program per mechanism type and shape (the noise levels are arguments of it,
+    not constants)."""
+    cov, jac = _noise_and_jacobian(geometry, jnp.asarray(poses), jnp.asarray(sigma_um, float),
+                                   jnp.asarray(sigma_arcsec, float))
+    return np.asarray(cov), np.asarray(jac)
+
+
+@eqx.filter_jit
+def _noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec):
+    cov = stroke_noise_covariance(geometry, poses, pose_noise_covariance(sigma_um, sigma_arcsec))
+    return cov, identification_jacobian(geometry, poses)
+
+
 class IdentifiabilityReport(NamedTuple):
     """See :func:`identifiability_report`. Lengths in mm, angles in rad unless named."""
 
@@ -101,7 +118,7 @@ def identifiability_report(
         "O3": float(smin),
         "O4": float(smin**2 / s[0]),
     }
-    C = np.asarray(stroke_noise_covariance(geometry, poses, pose_noise_covariance(sigma_um, sigma_arcsec)))
+    C = noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec)[0]
     # NOTE: the readings' covariance is block diagonal (one 6 × 6 block per pose), so
     # Jᵀ C J = Σ_j J_jᵀ C_j J_j is formed block by block: memory n × n plus the Jacobian, linear
     # in the poses (the dense 6m × 6m matrix is 27 GiB at 10⁴ poses).

@@ -110,6 +110,11 @@ def stroke_residuals(
     return (data.strokes - sol.strokes).reshape(-1)
 
 
+stroke_residuals_compiled = eqx.filter_jit(stroke_residuals)
+""":func:`stroke_residuals` as one compiled program (per mechanism type and pose count), for the
+host-side steps that evaluate it at a few parameter vectors."""
+
+
 def calibration_cost(
     params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, ""]:
