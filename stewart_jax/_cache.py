@@ -5,13 +5,12 @@ JAX's persistent compilation cache (``jax_compilation_cache_dir``) stores each c
 under a key that hashes the program, the compile options, the XLA flags, the device and the
 jaxlib version. This module chooses the folder and the entry class:
 
-- it is off unless ``STEWART_JAX_CACHE_DIR`` turns it on (see :func:`cache_dir`'s NOTE for why):
-  ``STEWART_JAX_CACHE_DIR=on`` uses ``<user cache folder>/stewart_jax`` (``$XDG_CACHE_HOME`` or
-  ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows),
-  ``STEWART_JAX_CACHE_DIR=<folder>`` that folder, and ``off`` (or unset) none;
-- programs go to the subfolder ``jax-<jax version>-jaxlib-<jaxlib version>``: a JAX upgrade starts
-  an empty folder, so no program of another version is ever read, and the old folder can be
-  deleted whole;
+- the folder is ``<user cache folder>/stewart_jax/jax-<jax version>-jaxlib-<jaxlib version>``
+  (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,
+  ``%LOCALAPPDATA%`` on Windows): a JAX upgrade starts an empty folder, so no program of another
+  version is ever read, and the old folder can be deleted whole;
+- ``STEWART_JAX_CACHE_DIR=<folder>`` moves it (the version subfolder is kept), and
+  ``STEWART_JAX_CACHE_DIR=off`` turns it off;
 - a cache the user configured for JAX (``JAX_COMPILATION_CACHE_DIR`` or
   ``jax.config.update("jax_compilation_cache_dir", …)`` before stewart_jax loaded JAX, or
   ``JAX_ENABLE_COMPILATION_CACHE=false``) is left exactly as configured;
@@ -35,7 +34,6 @@ from pathlib import Path
 ENV_DIR = "STEWART_JAX_CACHE_DIR"
 ENV_MAX_MB = "STEWART_JAX_CACHE_MAX_MB"
 OFF = ("off", "0", "false", "no", "none")
-ON = ("on", "1", "true", "yes", "default")
 DEFAULT_MAX_MB = 1024.0
 _SUFFIX = "-cache"
 _STALE_TMP_S = 3600.0
@@ -64,20 +62,18 @@ def version_folder() -> str:
 
 
 def cache_dir(environ=os.environ) -> Path | None:
-    """The folder stewart_jax would use, or ``None`` (the default) where ``STEWART_JAX_CACHE_DIR``
-    does not turn the cache on.
+    """The folder stewart_jax would use, or ``None`` where ``STEWART_JAX_CACHE_DIR`` turns it off.
 
-    NOTE: the cache is opt-in. On jaxlib 0.10.2 (CPU), XLA aborted the whole process (``Fatal
-    Python error: Aborted`` in ``executable.serialize()``, called by JAX's
-    ``put_executable_and_time`` before any entry is stored) while writing one of the FAST
-    cabin-record fit's programs (``tests/test_discrepancy_cabin_record.py``, twice, in separate
-    runs). An abort cannot be caught, so a cache on by default would turn a diagnosis into a crash;
-    the program has not yet been reduced.
-    """
+    NOTE: jaxlib 0.10.2 once aborted a process inside ``executable.serialize()`` while storing a
+    program here, and another time crashed compiling one. Both were processes past the kernel's
+    limit on memory mappings (``vm.max_map_count``): every XLA:CPU executable keeps its code in
+    mappings of its own, and a test worker holding thousands of programs ran out. The cache was
+    not the cause; a process that compiles thousands of programs should call
+    ``jax.clear_caches()`` now and then (the test suite does after every file)."""
     value = environ.get(ENV_DIR, "").strip()
-    if not value or value.lower() in OFF:
+    if value.lower() in OFF:
         return None
-    root = user_cache_root(environ) / "stewart_jax" if value.lower() in ON else Path(value).expanduser()
+    root = Path(value).expanduser() if value else user_cache_root(environ) / "stewart_jax"
     return root / version_folder()
 
 

@@ -34,13 +34,12 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 """``{subcommand: (module in stewart_jax._cli, its function that adds the parser, one line of help)}``."""
 
 EPILOG = """\
-compilation cache (opt-in):
-  JAX compiles each numerical program once per run; with the cache on it keeps them on disk, so
-  that later runs start in seconds, bounded to STEWART_JAX_CACHE_MAX_MB (default 1024). Environment:
-    STEWART_JAX_CACHE_DIR=on         in ~/.cache/stewart_jax/jax-<version>-jaxlib-<version>
-    STEWART_JAX_CACHE_DIR=<folder>   in that folder
-    STEWART_JAX_CACHE_DIR=off        no cache (the default: jaxlib 0.10.2 aborted while storing
-                                     one FAST cabin-record program)
+compilation cache:
+  JAX compiles each numerical program once and keeps it on disk, so that later runs start in
+  seconds: by default in ~/.cache/stewart_jax/jax-<version>-jaxlib-<version> (the platform's
+  user cache folder), bounded to STEWART_JAX_CACHE_MAX_MB (default 1024). Environment:
+    STEWART_JAX_CACHE_DIR=<folder>   keep the cache there instead
+    STEWART_JAX_CACHE_DIR=off        no cache (every run compiles)
   A cache you configured for JAX itself (JAX_COMPILATION_CACHE_DIR) is used as configured.
 """
 
