@@ -32,7 +32,7 @@ def suite():
     return cocoex.Suite("bbob", "instances: 1-3,101", "dimensions: 2,5,10,20")
 
 
-@pytest.mark.parametrize("dim", [2, 5, 10, 20])
+@pytest.mark.parametrize("dim", [2, 5, 10, pytest.param(20, marks=pytest.mark.slow)])  # 20-D: 20 s
 def test_every_function_matches_cocoex(suite, dim):
     rng = np.random.default_rng(dim)
     problems = bbob.make_instances(FUNCTIONS, INSTANCES, dim)

@@ -22,6 +22,9 @@ from stewart_jax.cable_robot._cabin_modal import free_response
 from stewart_jax.cable_robot._pencil import record_modes
 from stewart_jax.discrepancy import _cabin_record as cr, cabin_record_model, read_cabin_record
 
+# The slow tier (make test-all runs it, make test does not): cabin records of several lengths, each diagnosed.
+pytestmark = pytest.mark.slow
+
 PARAMS = paper_fast_params()
 POS = (0.0, 0.0, 140.0)
 N = 3

@@ -21,6 +21,10 @@ from stewart_jax.cable_robot._lumped import (
 )
 from stewart_jax.cable_robot._lumped_low import modal_summary
 
+# The slow tier (make test-all runs it, make test does not): lumped-mass statics at two refinements, shared by
+# every test here (63 s on 2 cores).
+pytestmark = pytest.mark.slow
+
 static_equilibrium_jit, cabin_modes_jit = jax.jit(static_equilibrium), jax.jit(cabin_modes)
 
 PARAMS = paper_fast_params()

@@ -35,6 +35,7 @@ def test_lumped_needs_modes(capsys):
     assert "--modes" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # the 8-segment lumped modes through the command line: 19 s
 def test_lumped_modes_json(tmp_path):
     out = tmp_path / "lumped.json"
     assert main(["fast", "--position", "0,0,140", "--modes", "--cables", "lumped", "--segments", "8",

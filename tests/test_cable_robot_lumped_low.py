@@ -15,6 +15,10 @@ from stewart_jax.cable_robot._lumped_low import lumped_low_modes, modal_summary
 from stewart_jax.cable_robot._statics import static_equilibrium_jit
 from stewart_jax.cable_robot._workspace import assembly_centre_of_mass
 
+# The slow tier (make test-all runs it, make test does not): the low-mode solver against dense modes at two
+# positions (60 s on 2 cores).
+pytestmark = pytest.mark.slow
+
 PARAMS = paper_fast_params()
 R = jnp.eye(3)
 N = 8

@@ -5,10 +5,15 @@ model: catenaries re-solved every step, the legs' inertia along the moving cabin
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import stewart_jax  # noqa: F401
 from stewart_jax.cable_robot import CableParams, paper_fast_params, run_scenario
 from stewart_jax.cable_robot._lumped_scenario import lumped_scenario
+
+# The slow tier (make test-all runs it, make test does not): the lumped-mass cables through the whole FAST
+# scenario.
+pytestmark = pytest.mark.slow
 
 run_scenario_jit = jax.jit(run_scenario, static_argnames=("duration", "dt", "start", "method"))
 

@@ -11,6 +11,10 @@ import pytest
 import stewart_jax  # noqa: F401
 from stewart_jax.cable_robot import lumped_modes, modal_summary, paper_fast_params, simulate_lumped
 
+# The slow tier (make test-all runs it, make test does not): lumped-mass time integration, shared by every test
+# here (35 s on 2 cores).
+pytestmark = pytest.mark.slow
+
 PARAMS = paper_fast_params()
 N = 8
 

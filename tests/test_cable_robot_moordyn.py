@@ -11,6 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+# The slow tier (make test-all runs it, make test does not): statics and dynamics against MoorDyn.
+pytestmark = pytest.mark.slow
+
 pytest.importorskip("moordyn")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 

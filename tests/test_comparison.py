@@ -34,6 +34,10 @@ from stewart_jax.study import best_within_budgets, data_profiles, paired_compari
 # or a closed form.
 from stewart_jax.study._statistics import bootstrap_median_ratio, evaluations_to_solve, wilcoxon_signed_rank
 
+# The slow tier (make test-all runs it, make test does not): the optimiser comparison benchmark's smoke run and
+# whole-budget CMA-ES runs.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 D = 6
 LO, HI = -5.0 * jnp.ones(D), 5.0 * jnp.ones(D)

@@ -19,6 +19,10 @@ from stewart_jax.calibration import (
 from stewart_jax.calibration._determined import determine, prior_scale, refine_in_subspace, total_std
 from stewart_jax.mechanism import preset, presets
 
+# The slow tier (make test-all runs it, make test does not): determined directions over several plans and
+# families, through the command line.
+pytestmark = pytest.mark.slow
+
 
 def test_refine_from_a_drifted_start_is_the_truncated_svd_solution():
     """A linear model with two directions the data barely see: from a start drifted 100 scales

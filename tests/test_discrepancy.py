@@ -32,6 +32,9 @@ from stewart_jax.discrepancy._pss import pss_strokes
 from stewart_jax.discrepancy._statistics import chi2_sf, f_sf, heldout_chi2, where_analysis
 from stewart_jax.discrepancy._subspace import absorption
 
+# The slow tier (make test-all runs it, make test does not): the 6-PSS diagnosis's rates over seeds.
+pytestmark = pytest.mark.slow
+
 MODEL = "6-pss"  # the 6-PSS model's name, the key of its effects
 EFFECTS = dc.effect_names(MODEL)
 T_REF_C = 20.0  # the thermal effect's reference temperature (docs/discrepancy.md)

@@ -19,6 +19,10 @@ from stewart_jax.discrepancy import (
     simulate_fast_measurement,
 )
 
+# The slow tier (make test-all runs it, make test does not): simulated responses of the coupled model, each
+# diagnosed (32 s on 2 cores).
+pytestmark = pytest.mark.slow
+
 MODEL_NAME = "fast"  # the FAST model's name, the key of its effects
 FAST_EFFECTS = ("cabin_coupling", "cable_elasticity", "actuator_gain", "actuator_delay")
 SIGMA_UM = 10.0

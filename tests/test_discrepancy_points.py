@@ -21,6 +21,9 @@ from stewart_jax import discrepancy as dc
 from stewart_jax._cli import main
 from stewart_jax.calibration import PointData
 
+# The slow tier (make test-all runs it, make test does not): the tracker-point diagnosis's rates over seeds.
+pytestmark = pytest.mark.slow
+
 RANGE_UM, ACROSS_UM_PER_M = 5.0, 2.5
 N_POSES = 30
 CANDIDATES = ("strut_scale", "backlash")

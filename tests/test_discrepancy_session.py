@@ -28,6 +28,10 @@ from stewart_jax.calibration import make_calibration_data
 from stewart_jax.discrepancy._driver import _stack, diagnose_many, select_effects, split_rows
 from stewart_jax.discrepancy._fits import _base_fits, _prepare_many, fit_candidates, fit_masks_many
 
+# The slow tier (make test-all runs it, make test does not): the naming rule's rates over seeds for every family
+# (8 min on 2 cores).
+pytestmark = pytest.mark.slow
+
 SEED = 0
 N_POSES = 180
 ABSORBED = {"6-UPS": ("tracker_misalignment", ("base", "platform", "lengths0")),

@@ -31,6 +31,9 @@ from stewart_jax._cli import main
 from stewart_jax.discrepancy._pss import pss_model
 from stewart_jax.discrepancy._ups import gravity_axial_loads, ups_model
 
+# The slow tier (make test-all runs it, make test does not): the 6-UPS diagnosis's rates over seeds.
+pytestmark = pytest.mark.slow
+
 MODEL = "6-ups"  # the 6-UPS model's name, the key of its effects
 EFFECTS = dc.effect_names(MODEL)
 T_REF_C = 20.0  # the thermal effect's reference temperature (docs/discrepancy.md)

@@ -22,6 +22,10 @@ from types import SimpleNamespace
 
 import pytest
 
+# The slow tier (make test-all runs it, make test does not): the strict documentation build, which executes
+# every notebook (6 min on 2 cores).
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 API = ROOT / "docs" / "api"
 NOTEBOOKS = ROOT / "notebooks"

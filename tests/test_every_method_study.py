@@ -18,6 +18,10 @@ import stewart_jax.study as study
 from stewart_jax.calibration import METHOD_REGISTRY, reachable_travel
 from stewart_jax.mechanism import PSSMechanism
 
+# The slow tier (make test-all runs it, make test does not): every registered method through a chunked, resumed
+# study.
+pytestmark = pytest.mark.slow
+
 STATUS_NAMES = ("success", "max_steps", "nonfinite", "target", "stall")  # the documented statuses, in code order
 
 # A fifth of the demo's budget, far below convergence (the Table 2 benchmark checks accuracy): the

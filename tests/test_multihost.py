@@ -11,8 +11,12 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from stewart_jax.study import run_study
+
+# The slow tier (make test-all runs it, make test does not): two processes of a study, compared with one.
+pytestmark = pytest.mark.slow
 
 K = 1  # trials per process: each process runs its own slice of the trial sequence
 # A cheap study: Cuckoo Search (Yang & Deb 2009) on a 200-evaluation budget compiles in about half

@@ -21,16 +21,15 @@ def sphere(y, _):
 
 
 def solvers():
-    """Every registered box method, and CMA-ES with each restart strategy."""
-    out = [(n, METHOD_REGISTRY[n].factory) for n in BOX]
-    out += [(f"cma-es/{r}", lambda r=r, **kw: o.CMAES(restarts=r, **kw)) for r in ("ipop", "bipop")]
+    """Every registered box method, and CMA-ES with each restart strategy (the slow tier: a
+    restarted CMA-ES compiles its restart schedule, 15-70 s a test on 2 cores)."""
+    out = [pytest.param(n, METHOD_REGISTRY[n].factory, id=n) for n in BOX]
+    out += [pytest.param(f"cma-es/{r}", lambda r=r, **kw: o.CMAES(restarts=r, **kw), id=f"cma-es/{r}",
+                         marks=pytest.mark.slow) for r in ("ipop", "bipop")]
     return out
 
 
-IDS = [n for n, _ in solvers()]
-
-
-@pytest.mark.parametrize("name,factory", solvers(), ids=IDS)
+@pytest.mark.parametrize("name,factory", solvers())
 def test_float32_objective_and_bounds_are_widened_at_the_boundary(name, factory):
     # A float32 objective over float32 bounds: the search runs in float64 (no dtype clash inside
     # a cond), the value is reported as a float64, and the minimum of the float32 sphere is found.
@@ -43,7 +42,7 @@ def test_float32_objective_and_bounds_are_widened_at_the_boundary(name, factory)
     assert float(r.cost) < 1e-2
 
 
-@pytest.mark.parametrize("name,factory", solvers(), ids=IDS)
+@pytest.mark.parametrize("name,factory", solvers())
 def test_fixed_coordinates_are_held_and_the_rest_searched(name, factory):
     # lower == upper fixes coordinate 1 at 0.5 (not the sphere's centre): the result holds it
     # exactly, the free coordinates reach the centre, and the cost is the fixed offset's square.
@@ -71,7 +70,7 @@ def test_every_coordinate_fixed_is_one_evaluation():
         assert int(r.n_evaluations) == 1 and o.status_name(r.status) == "success", name
 
 
-@pytest.mark.parametrize("name,factory", solvers(), ids=IDS)
+@pytest.mark.parametrize("name,factory", solvers())
 def test_targets_at_the_edges(name, factory):
     # target = +inf holds for the first evaluated point: no generation runs, the status says the
     # target was reached, and only the initialisation's calls are spent.
@@ -95,7 +94,7 @@ def test_targets_at_the_edges(name, factory):
     assert int(r.n_evaluations) < 6_000
 
 
-@pytest.mark.parametrize("name,factory", solvers(), ids=IDS)
+@pytest.mark.parametrize("name,factory", solvers())
 def test_target_nan_is_refused_at_construction(name, factory):
     with pytest.raises(ValueError, match="target"):
         factory(target=float("nan"))

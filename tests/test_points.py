@@ -60,6 +60,7 @@ def run(tmp_path_factory):
             "true": load_mechanism(d / "true.json"), "json": json.loads((d / "res.json").read_text())}
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_cli_calibration_recovers_the_true_mechanism(run):
     out, data = run["json"], run["data"]
     seen = data.targets_per_pose()
@@ -83,6 +84,7 @@ def test_cli_calibration_recovers_the_true_mechanism(run):
     assert "tracker points" in report and "χ² = " in report
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_jacobian_matches_central_differences(run):
     data, targets, nominal = run["data"], run["targets"], run["nominal"]
     problem = _problem(data, targets, nominal, RANGE_UM, ACROSS_UM_PER_M, start_values(data, targets, nominal))
@@ -106,6 +108,7 @@ def test_whitening_inverts_the_tracker_covariance():
         np.testing.assert_allclose(wi @ np_covariance(p, RANGE_UM, ACROSS_UM_PER_M) @ wi.T, np.eye(3), atol=1e-9)
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_predicted_uncertainty_covers_the_error(run):
     """20 noise draws on the same poses and targets: in the directions the points determine (the
     others are held at nominal), the estimate's Mahalanobis distance from the truth under the
@@ -155,6 +158,7 @@ def _refuse(run, tmp_path, lines, match):
     assert "\n" not in str(e.value)
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_bad_points_files_are_refused_naming_the_line(run, tmp_path):
     lines = _lines(run)
     first_pose = next(i for i, x in enumerate(lines) if i and not x.startswith("ref"))  # line i + 1

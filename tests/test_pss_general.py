@@ -184,6 +184,7 @@ def test_fast_path_refuses_a_generalised_mechanism():
         inverse_kinematics_soa(general_mechanism(), grid(9, 4).T)
 
 
+@pytest.mark.slow  # four parameter sets calibrated: 22 s
 def test_larger_parameter_sets_calibrate_what_the_paper_model_cannot():
     """Data from a mechanism with tilted sliders and longer rods: the 36-parameter model stays
     far above the noise floor; the 54-parameter model reaches it and commands the true mechanism

@@ -19,6 +19,10 @@ from pathlib import Path
 
 import pytest
 
+# The slow tier (make test-all runs it, make test does not): the architecture recipes built and put through the
+# registry-driven tests.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "architecture.md"
 

@@ -131,6 +131,7 @@ def test_geometry_file_round_trip_and_bad_files(rotary, tmp_path):
 # ---------------------------------------------------------------- the command line, units in every output
 
 
+@pytest.mark.slow  # a diagnosis or the whole command line: 20-35 s
 def test_simulate_calibrate_report_export_through_the_command_line(rotary, tmp_path, capsys):
     geo, csv, true_json = tmp_path / "rus.json", tmp_path / "rus.csv", tmp_path / "true.json"
     cal, report, out_geo = tmp_path / "cal.json", tmp_path / "report.md", tmp_path / "cal_geo.json"
@@ -213,6 +214,7 @@ def report(rotary, hidden):
     return dc.diagnose(hidden.data, dc.model_for(rotary), seed=SEED, effects=CANDIDATES)
 
 
+@pytest.mark.slow  # a diagnosis or the whole command line: 20-35 s
 def test_gear_ratio_is_named_and_the_absorbed_encoder_offset_is_not(report):
     d = report.to_dict()
     assert d["detected"] and d["named_effect"] == "gear_ratio" and d["gap_after"] < 0.6 * d["gap_before"]
@@ -227,6 +229,7 @@ def test_nothing_hidden_nothing_named(rotary, simulated):
     assert d["named_effect"] is None and not d["explained"]
 
 
+@pytest.mark.slow  # a diagnosis or the whole command line: 20-35 s
 def test_cli_diagnoses_a_rotary_geometry_file_and_keeps_its_units(rotary, tmp_path, hidden, report):
     geo, csv, out, model_json = (tmp_path / n for n in ("rus.json", "d.csv", "r.json", "m.json"))
     sj.save_mechanism(rotary, geo)

@@ -9,6 +9,11 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
+
+# The slow tier (make test-all runs it, make test does not): a study sharded over virtual devices, compared with
+# one device.
+pytestmark = pytest.mark.slow
 
 CHILD = r"""
 import json, sys
