@@ -55,6 +55,7 @@ def test_perturbed_truth_statistics():
         perturbed(m, jax.random.key(0), -1.0)
 
 
+@pytest.mark.slow  # simulate, calibrate, report and export through the command line: 20 s
 def test_strut_hexapod_file_through_the_command_line(tmp_path, capsys):
     geo, csv, true_json = tmp_path / "m2.json", tmp_path / "m2.csv", tmp_path / "true.json"
     cal_json, out_geo, hexkins = tmp_path / "cal.json", tmp_path / "cal_geo.json", tmp_path / "m2.hal"

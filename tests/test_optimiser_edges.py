@@ -63,7 +63,7 @@ def test_fixed_coordinates_are_held_and_the_rest_searched(name, factory):
 
 def test_every_coordinate_fixed_is_one_evaluation():
     x = jnp.array([0.1, 0.2, 0.3])
-    for name, factory in solvers():
+    for name, factory in (p.values for p in solvers()):
         r = minimise(sphere, factory(), x, x, jax.random.key(0), max_evaluations=100)
         np.testing.assert_array_equal(np.asarray(r.params), np.asarray(x))
         assert float(r.cost) == pytest.approx(float(np.sum((np.asarray(x) - CENTRE) ** 2)))

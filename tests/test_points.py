@@ -183,6 +183,7 @@ def test_bad_points_files_are_refused_naming_the_line(run, tmp_path):
     _refuse(run, tmp_path, [*lines, lines[first_pose]], rf"line {len(lines) + 1}: duplicate row.*line {first_pose + 1}")
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_cli_refuses_before_any_work(run, tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("\n".join(_lines(run)[:1] + _lines(run)[3:]) + "\n")
@@ -235,6 +236,7 @@ def test_points_files_of_every_family(family, tmp_path):
         assert not converged or value > 100 * 3 * len(data.points)
 
 
+@pytest.mark.slow  # the module's command-line run: 50 s on 2 cores
 def test_calibrated_joints_near_the_truth_and_export_checks_support(run, tmp_path, capsys):
     """The how-to's route ends in a geometry whose parameters lie within a few std of the truth
     (each std at most the 1 mm prior scale) and which exports; a geometry moved where its data give
