@@ -4,6 +4,7 @@ A new family registered with a preset is tested here without editing this file.
 """
 
 import json
+import re
 
 import jax
 import jax.numpy as jnp
@@ -155,3 +156,13 @@ def test_bad_geometry_files_name_the_problem(tmp_path):
         sj.load_mechanism(tmp_path / "missing.json")
     with pytest.raises(ValueError, match="unknown geometry preset"):
         preset("true")
+
+
+@pytest.mark.parametrize("name", sorted(presets()))
+def test_a_parameter_vector_of_the_wrong_length_is_refused_naming_the_family(name):
+    m = preset(name)
+    with pytest.raises(ValueError, match=rf"^{re.escape(m.family)}.* params must have a last axis of {m.n_params}"):
+        m.with_params(np.zeros(m.n_params + 1))
+    if m.family == "6-PSS":
+        with pytest.raises(ValueError, match=r"\(54-parameter set\)"):
+            m.with_param_set("54").with_params(np.zeros(5))

@@ -159,10 +159,14 @@ class AbstractMechanism(eqx.Module):
         p = jnp.asarray(params, dtype=jnp.float64)
         n = self.n_params
         if p.shape[-1:] != (n,):
-            param_set = getattr(self, "param_set", None)
-            which = f" ({param_set}-parameter set)" if param_set is not None else ""
-            raise ValueError(f"{self.family}{which} params must have a last axis of {n}, got shape {p.shape}")
+            raise ValueError(f"{self.params_label} params must have a last axis of {n}, got shape {p.shape}")
         return p
+
+    @property
+    def params_label(self) -> str:
+        """The parameter vector's name in messages: the family, and its parameter set where a
+        family has several."""
+        return self.family
 
     @property
     def leg_parameters(self) -> tuple[tuple[int, ...], ...] | None:

@@ -144,6 +144,10 @@ class PSSMechanism(AbstractMechanism):
         return rod_lengths(self)
 
     @property
+    def params_label(self) -> str:
+        return f"{self.family} ({self.param_set}-parameter set)"
+
+    @property
     def param_units(self) -> tuple[str, ...]:
         """mm for the joint centres and rod lengths, mrad for the 54-parameter set's tilts."""
         return ("mm",) * (36 if self.param_set == "36" else 42) + ("mrad",) * (12 if self.param_set == "54" else 0)
