@@ -35,7 +35,7 @@ demo: $(STAMP)
 #
 # `make test` leaves out the tests marked `slow` (statistical rates over many seeds, whole
 # studies and diagnoses end to end, the documentation build): it is the tier CI runs, about
-# 8 minutes on 2 cores. `make test-all` runs every test (about 35 minutes on 2 cores).
+# 9½ minutes on 2 cores. `make test-all` runs every test (about 37 minutes on 2 cores).
 PYTEST_RUN = STEWART_JAX_CACHE_DIR="$${STEWART_JAX_CACHE_DIR:-off}" \
 	XLA_FLAGS="--xla_backend_optimization_level=0 $$XLA_FLAGS" $(BIN)/python -m pytest -q -n 2 --dist loadfile --max-worker-restart=0
 
