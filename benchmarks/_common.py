@@ -40,15 +40,16 @@ def machine_info() -> dict:
     }
 
 
-def write_results(name: str, payload: dict, markdown: str) -> None:
-    """``results/NAME.json`` (payload + machine info) and ``results/NAME.md``."""
-    os.makedirs(RESULTS, exist_ok=True)
+def write_results(name: str, payload: dict, markdown: str, out: str = RESULTS) -> None:
+    """``OUT/NAME.json`` (payload + machine info) and ``OUT/NAME.md`` (``OUT`` is ``results/``
+    unless given)."""
+    os.makedirs(out, exist_ok=True)
     info = machine_info()
-    write_text_atomic(os.path.join(RESULTS, f"{name}.json"), json.dumps({"machine": info, **payload}, indent=1) + "\n")
+    write_text_atomic(os.path.join(out, f"{name}.json"), json.dumps({"machine": info, **payload}, indent=1) + "\n")
     header = (
         f"Command: `{info['command']}`  \n"
         f"Machine: {info['platform']}, {info['cpu_count']} CPUs ({info['processor']}), backend "
         f"{info['backend']}, load average {info['load_average_1min']}; python {info['python']}, "
         f"jax {info['jax']}, numpy {info['numpy']}; {info['date_utc']} UTC\n\n"
     )
-    write_text_atomic(os.path.join(RESULTS, f"{name}.md"), header + markdown.rstrip() + "\n")
+    write_text_atomic(os.path.join(out, f"{name}.md"), header + markdown.rstrip() + "\n")

@@ -35,10 +35,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import RESULTS, machine_info  # noqa: E402
+from _common import RESULTS, write_results  # noqa: E402
 
 import stewart_jax as sj  # noqa: E402
-from stewart_jax._files import write_text_atomic  # noqa: E402
 from stewart_jax.calibration import calibrate_batch  # noqa: E402
 from stewart_jax.optimise import status_name  # noqa: E402
 from stewart_jax.study import simulate_trials, trial_keys  # noqa: E402
@@ -111,18 +110,11 @@ def main(argv: list[str] | None = None) -> int:
                   f"{row['calibrations_per_s']:.3g} calibrations/s, success {row['success_share']:.0%}", flush=True)
     devices = [str(d) for d in jax.devices()]
     name = f"gpu_{backend}{'_quick' if args.quick else ''}"
-    payload = {"machine": machine_info(), "backend": backend, "gpu_figures": backend == "gpu",
-               "method": "lm-batched", "repeats": args.repeats, "rows": rows,
+    payload = {"backend": backend, "gpu_figures": backend == "gpu", "method": "lm-batched",
+               "repeats": args.repeats, "rows": rows,
                "reference": {"gpufit_fits_per_s": GPUFIT_FITS_PER_S,
                              "gpufit_problem": "5 parameters, 25 points, float32, 2016 GPU"}}
-    os.makedirs(args.out, exist_ok=True)
-    import json
-
-    write_text_atomic(os.path.join(args.out, f"{name}.json"), json.dumps(payload, indent=1) + "\n")
-    info = payload["machine"]
-    header = (f"Command: `{info['command']}`  \nMachine: {info['platform']}, {info['cpu_count']} CPUs, load average "
-              f"{info['load_average_1min']}; jax {info['jax']}; {info['date_utc']} UTC\n\n")
-    write_text_atomic(os.path.join(args.out, f"{name}.md"), header + markdown(rows, backend, devices) + "\n")
+    write_results(name, payload, markdown(rows, backend, devices), out=args.out)
     return 0
 
 

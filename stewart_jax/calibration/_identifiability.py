@@ -104,7 +104,7 @@ def identifiability_report(
     The observability indices use the ``n`` (36 for the 6-PSS) scaled singular values: O1 =
     (Π σ_i)^(1/n)/√(6m), O2 = σ_min/σ_max, O3 = σ_min, O4 = σ_min²/σ_max.
     """
-    J = np.asarray(identification_jacobian(geometry, poses))
+    C, J = noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec)
     norms = np.linalg.norm(J, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     s = np.linalg.svd(J / norms, compute_uv=False)
@@ -118,7 +118,6 @@ def identifiability_report(
         "O3": float(smin),
         "O4": float(smin**2 / s[0]),
     }
-    C = noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec)[0]
     # NOTE: the readings' covariance is block diagonal (one 6 × 6 block per pose), so
     # Jᵀ C J = Σ_j J_jᵀ C_j J_j is formed block by block: memory n × n plus the Jacobian, linear
     # in the poses (the dense 6m × 6m matrix is 27 GiB at 10⁴ poses).
