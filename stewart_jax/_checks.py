@@ -22,6 +22,30 @@ def is_traced(tree) -> bool:
     return any(isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves(tree))
 
 
+def array_module(*xs):
+    """NumPy when every ``x`` is concrete, else ``jax.numpy``: for the small reshapes, slices and
+    concatenations of a family's fields (:func:`on_host`).
+
+    NOTE: outside ``jit`` each such JAX operation compiles a program of its own per shape (tracing,
+    lowering and a cache lookup, about 10 ms each); on concrete values NumPy does the same
+    operation exactly, and :func:`to_device` hands the result back as a JAX array."""
+    return jnp if is_traced(xs) else np
+
+
+def on_host(*xs):
+    """``(np, xs as NumPy arrays)`` when every ``x`` is concrete (``None`` kept), else ``(jnp, xs)``
+    (:func:`array_module`; a NumPy function given a JAX array would call the array's own method,
+    an eager JAX operation)."""
+    xp = array_module(*xs)
+    return xp, tuple(x if xp is jnp or x is None else np.asarray(x) for x in xs)
+
+
+def to_device(x) -> Array:
+    """``x`` as a JAX array without compiling anything (``jnp.asarray`` of a NumPy array stages a
+    copy program per shape; ``jax.device_put`` transfers it)."""
+    return x if isinstance(x, jax.Array) else jax.device_put(x)
+
+
 def check_array(x: ArrayLike, name: str, last_dim: int) -> Array:
     """Float64 array with last axis ``last_dim``, finite where the value is concrete."""
     if isinstance(x, jax.core.Tracer):
@@ -34,7 +58,7 @@ def check_array(x: ArrayLike, name: str, last_dim: int) -> Array:
     if not np.all(np.isfinite(a)):
         idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
         raise ValueError(f"{name} contains NaN or inf (first at index {idx})")
-    return jnp.asarray(a)
+    return to_device(a)
 
 
 def check_poses(poses: ArrayLike, name: str = "poses") -> Array:
@@ -64,7 +88,7 @@ def field_array(
     built under ``jit``/``vmap`` from checked values) passes unchecked."""
     if isinstance(x, jax.core.Tracer):
         return x
-    return jnp.asarray(field_numpy(x, owner, name, shape, positive=positive, unit=unit))
+    return to_device(field_numpy(x, owner, name, shape, positive=positive, unit=unit))
 
 
 def field_numpy(

@@ -32,6 +32,34 @@ def test_parameter_jacobian_matches_finite_differences(geoms):
     np.testing.assert_allclose(J, fd, atol=1e-8)
 
 
+def test_kinematic_snapshot_and_control_error_sensitivity_match_finite_differences(geoms):
+    """One program serves the reachability check, the noise covariance, both Jacobians and the
+    control-error sensitivity: each against central differences of the inverse kinematics."""
+    from stewart_jax.calibration._identifiability import control_error_sensitivity, kinematic_snapshot
+
+    _, act = geoms
+    poses = np.asarray(sj.calibration.random_poses(jax.random.key(3), 4))
+    snap = kinematic_snapshot(act, poses, sigma_um=2.0, sigma_arcsec=3.0)
+    ik = lambda mech, p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).strokes)  # noqa: E731
+    # two compiled programs fuse the same arithmetic differently: 1e-14 mm apart, not bitwise
+    np.testing.assert_allclose(snap.readings, ik(act, poses), rtol=0, atol=1e-12)
+    assert snap.reachable.shape == (4,) and snap.reachable.all()
+    h = 1e-6  # mm and rad: the IK is smooth, central differences are good to ~1e-9 here
+    jp_fd = np.stack([(ik(act, poses + h * e) - ik(act, poses - h * e)) / (2 * h) for e in np.eye(6)], axis=-1)
+    np.testing.assert_allclose(snap.pose_jacobian, jp_fd, atol=1e-7)
+    sigma = np.diag([(2.0e-3) ** 2] * 3 + [(3.0 * np.pi / 180 / 3600) ** 2] * 3)
+    np.testing.assert_allclose(snap.noise, jp_fd @ sigma @ np.swapaxes(jp_fd, 1, 2), rtol=1e-6, atol=1e-20)
+    u = np.asarray(act.params)
+    gu_fd = np.stack([(ik(act.with_params(u + h * e), poses) - ik(act.with_params(u - h * e), poses)) / (2 * h)
+                      for e in np.eye(36)], axis=-1)
+    np.testing.assert_allclose(snap.jacobian, gu_fd.reshape(-1, 36), atol=1e-7)
+    m = control_error_sensitivity(act, poses)
+    np.testing.assert_allclose(np.einsum("kij,kjn->kin", jp_fd, m), gu_fd, atol=1e-6)
+    unreachable = poses.copy()
+    unreachable[1, 0] = 400.0  # mm sideways: longer than the rods
+    assert kinematic_snapshot(act, unreachable).reachable.tolist() == [True, False, True, True]
+
+
 def test_parameter_covariance_is_the_least_squares_sandwich(geoms):
     nom, _ = geoms
     poses = sj.plan_poses("plan120", jax.random.key(0))

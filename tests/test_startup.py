@@ -107,3 +107,36 @@ def test_the_latency_benchmark_runs_at_a_small_size(tmp_path):
     assert all(r["cold"]["exit"] == 0 and r["warm"]["exit"] == 0 for r in result["rows"])
     assert [t["target"] for t in result["targets"]] == ["--help / import numpy, CPU"]
     assert "| target |" in (tmp_path / "latency.md").read_text()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 12345, 2**31, 2**32 - 1, 2**32, 2**40 + 7])
+def test_the_command_lines_key_is_jax_random_key_of_the_seed(seed):
+    """The command line builds its key without running JAX's seeding program; it must be the
+    very key ``jax.random.key(seed)`` makes (else every stochastic result would move)."""
+    import jax
+
+    from stewart_jax._cli._common import seed_key
+
+    np_equal = (jax.random.key_data(seed_key(seed)) == jax.random.key_data(jax.random.key(seed))).all()
+    assert bool(np_equal)
+    assert jax.random.key_impl(seed_key(seed)) == jax.random.key_impl(jax.random.key(seed))
+
+
+def test_a_command_line_process_freezes_its_start_up_objects(tmp_path):
+    """``main()`` of a process imports with the collector off and freezes what the imports built;
+    an in-process call with an explicit argv leaves the collector as it found it."""
+    script = (
+        "import gc, sys\n"
+        "from stewart_jax._cli import main\n"
+        "sys.argv = ['stewart-jax', 'export', 'nominal', '--format', 'json', '--out', sys.argv[1]]\n"
+        "before = gc.get_freeze_count()\n"
+        "assert main() == 0 and gc.isenabled() and gc.get_freeze_count() > before + 10_000\n"
+        "assert gc.get_threshold()[0] == 20_000\n"
+        "frozen = gc.get_freeze_count()\n"
+        "gc.set_threshold(700, 10, 10)\n"
+        "assert main(['export', 'nominal', '--format', 'json', '--out', sys.argv[1] + '2']) == 0\n"
+        "assert gc.isenabled() and gc.get_freeze_count() == frozen and gc.get_threshold() == (700, 10, 10)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path / "n.json")], capture_output=True, text=True,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]

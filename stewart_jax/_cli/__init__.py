@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import ast
 import difflib
+import gc
 import importlib
 import re
 import sys
@@ -111,8 +112,32 @@ def _parsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
     return [parser] + [p for s in subs for p in s.built]
 
 
+YOUNG_COLLECTION_ALLOCATIONS = 20_000
+"""How many allocations a command-line process lets pass between collections of the youngest
+generation (Python's default: 700); :func:`main`."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    """Run the command line on ``argv`` (default: the process's own arguments) and return the exit
+    status.
+
+    NOTE: a process's command line (``argv`` None) imports JAX and the subcommand with the cyclic
+    garbage collector off, then freezes what the imports built (``gc.freeze``) and collects the
+    youngest generation every 20 000 allocations instead of 700: the collector then never walks
+    JAX's start-up objects again and runs less often while JAX traces. Measured on a warm 8-pose
+    ``calibrate``: 2.6 s of CPU with Python's defaults, 2.0 s so. The work runs with the collector
+    on. An in-process call with an explicit ``argv`` (the tests, a notebook) leaves the collector
+    alone."""
+    own_process = argv is None
+    if own_process:
+        gc.disable()
+    try:
+        args = build_parser().parse_args(argv)
+    finally:
+        if own_process:
+            gc.freeze()
+            gc.set_threshold(YOUNG_COLLECTION_ALLOCATIONS, 20, 20)
+            gc.enable()
     try:
         return args.func(args)
     except (ValueError, OSError, TypeError) as e:  # bad input or an unreadable/unwritable file: a message

@@ -56,6 +56,17 @@ def file_backend() -> None:
     matplotlib.use("Agg")
 
 
+def seed_key(seed: int):
+    """``jax.random.key(seed)`` (the same key: threefry's seed of ``0 ≤ s < 2³²`` is the pair
+    ``(0, s)``) without its two eager programs, which a warm command would otherwise look up."""
+    import jax
+    import numpy as np
+
+    if 0 <= seed < 2**32 and jax.config.jax_default_prng_impl == "threefry2x32":
+        return jax.random.wrap_key_data(np.array([0, seed], dtype=np.uint32), impl="threefry2x32")
+    return jax.random.key(seed)
+
+
 def noise_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma-um", type=float, default=0.1, help="pose noise σ, translation (µm)")
     p.add_argument("--sigma-arcsec", type=float, default=0.1, help="pose noise σ, angles (″)")
@@ -114,7 +125,7 @@ def nominal_and_true(args: argparse.Namespace):
     elif measured_preset(args.geometry) is not None:
         true = load_mechanism(measured_preset(args.geometry))
     else:
-        true = perturbed(nominal, jax.random.fold_in(jax.random.key(args.seed), 1_000_003), args.perturb_mm,
+        true = perturbed(nominal, jax.random.fold_in(seed_key(args.seed), 1_000_003), args.perturb_mm,
                          getattr(args, "perturb_mrad", None))
     if type(nominal) is not type(true):
         raise ValueError(f"--geometry is a {nominal.family}, --true a {true.family}: give one family")

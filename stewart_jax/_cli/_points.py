@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from ._common import check_outputs, write_json
+from ._common import check_outputs, seed_key, write_json
 
 
 def tracker_sigma_arg(text: str) -> float | tuple[float, float]:
@@ -163,7 +163,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     range_um, across = tracker_sigma(args)
     nominal, true = nominal_and_true(args)
     targets = default_targets(nominal) if args.default_targets else read_targets(args.targets)
-    k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
+    k_plan, k_noise = jax.random.split(seed_key(args.seed))
     commanded = plan_poses(args.plan, k_plan, reachable_travel(nominal))
     sim = simulate_points(k_noise, nominal, true, targets, commanded, range_um=range_um, across_um_per_m=across,
                           visible=args.visible)

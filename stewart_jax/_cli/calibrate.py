@@ -17,6 +17,7 @@ from ._common import (
     noise_args,
     param_set_arg,
     save_calibrated,
+    seed_key,
     write_json,
 )
 
@@ -56,7 +57,6 @@ def run(args: argparse.Namespace) -> int:
     import warnings
 
     import jax
-    import jax.numpy as jnp
 
     from ..calibration._assessment import assess_calibration, hold_undetermined, implied_pose_errors
     from ..calibration._csv import read_csv
@@ -80,12 +80,12 @@ def run(args: argparse.Namespace) -> int:
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
     t0 = time.perf_counter()
-    result = jax.block_until_ready(calibrate(problem, args.method, jax.random.key(args.seed), **options))
+    result = jax.block_until_ready(calibrate(problem, args.method, seed_key(args.seed), **options))
     params = np.asarray(result.params)
     if np.all(np.isfinite(params)):
         params = hold_undetermined(nominal, data, params, args.sigma_um, args.sigma_arcsec)
         result = result._replace(params=params, cost=float(np.sum(np.asarray(
-            stroke_residuals_compiled(jnp.asarray(params), data, nominal)) ** 2)))
+            stroke_residuals_compiled(params, data, nominal)) ** 2)))
     seconds = time.perf_counter() - t0
     m = data.n_poses
     rms_key, reading_unit, cost_unit = _reading_labels(nominal)
@@ -178,12 +178,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_reachable(nominal, data, args) -> None:
     """Refuse rows the nominal geometry cannot reach, naming them (wrong units, swapped columns)."""
-    import jax.numpy as jnp
+    from ..calibration._identifiability import kinematic_snapshot
 
-    from ..mechanism._kinematics import solve_inverse_kinematics
-
-    sol = solve_inverse_kinematics(nominal, jnp.asarray(data.poses))
-    bad = np.flatnonzero(~np.asarray(sol.reachable))
+    # the program the assessment runs later: checking here compiles nothing of its own
+    bad = np.flatnonzero(~kinematic_snapshot(nominal, data.poses, args.sigma_um, args.sigma_arcsec).reachable)
     if bad.size:
         raise ValueError(
             f"{args.file}: rows {(bad + 1).tolist()[:10]}{' …' if bad.size > 10 else ''} (1-based, after the header) "
@@ -231,7 +229,6 @@ def _assessment_keys(a) -> dict:
 
 def _heldout(args, data, nominal, fraction, options) -> dict:
     """Calibrate without a random ``fraction`` of the rows; the held-out rows' implied pose errors."""
-    import jax
 
     from ..calibration._assessment import hold_undetermined, implied_pose_errors
     from ..calibration._methods import calibrate
@@ -246,7 +243,7 @@ def _heldout(args, data, nominal, fraction, options) -> dict:
         raise ValueError(f"--holdout {fraction}: {m} poses leave {len(train)} to calibrate {nominal.n_params} "
                          "parameters with; use a smaller fraction or --holdout 0")
     res = calibrate(calibration_problem(data.take(train), nominal, args.half_width, args.half_width_mrad), args.method,
-                    jax.random.key(args.seed), **options)
+                    seed_key(args.seed), **options)
     params = np.asarray(res.params)
     if np.all(np.isfinite(params)):
         params = hold_undetermined(nominal, data.take(train), params, args.sigma_um, args.sigma_arcsec)

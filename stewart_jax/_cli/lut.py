@@ -8,7 +8,7 @@ import csv
 import io
 import sys
 
-from ._common import check_outputs, write_json
+from ._common import check_outputs, seed_key, write_json
 
 _GEOMETRY = {"camera": "rubin_camera", "m2": "rubin_m2"}
 
@@ -340,7 +340,6 @@ def campaign_args(p: argparse.ArgumentParser) -> None:
 
 def run_campaign(args: argparse.Namespace) -> int:
     """``simulate --campaign``: pose noise ``--sigma-um``, ``--sigma-arcsec``."""
-    import jax
 
     from ..compensation._campaign import camera_flexure, simulate_campaign, write_campaign
     from ..compensation._yaml import load_table
@@ -349,7 +348,7 @@ def run_campaign(args: argparse.Namespace) -> int:
     if args.points:
         return _simulate_points_campaign(args)
     truth = load_table(args.truth, args.hexapod) if args.truth else camera_flexure()
-    c = simulate_campaign(jax.random.key(args.seed), truth, args.elevations_deg, args.rotations_deg,
+    c = simulate_campaign(seed_key(args.seed), truth, args.elevations_deg, args.rotations_deg,
                           args.temperatures_degC, sigma_um=args.sigma_um, sigma_arcsec=args.sigma_arcsec)
     what = f"table {' + '.join(args.truth)} ({args.hexapod})" if args.truth else "a flexure model"
     write_campaign(c, args.out, (f"stewart-jax simulate --campaign: truth {what}, σ {args.sigma_um} µm, "
@@ -360,7 +359,6 @@ def run_campaign(args: argparse.Namespace) -> int:
 
 def _simulate_points_campaign(args: argparse.Namespace) -> int:
     """``simulate --campaign --points``: the targets measured at every attitude, hexapod at zero."""
-    import jax
 
     from .._files import write_text_atomic
     from ..calibration._points_io import read_targets, write_targets
@@ -379,7 +377,7 @@ def _simulate_points_campaign(args: argparse.Namespace) -> int:
     mechanism = load_mechanism(_GEOMETRY[args.hexapod] if args.geometry == "nominal" else args.geometry)
     targets = default_targets(mechanism) if args.default_targets else read_targets(args.targets)
     range_um, across = tracker_sigma(args)
-    data, att = simulate_points_campaign(jax.random.key(args.seed), load_table(args.truth, args.hexapod), mechanism,
+    data, att = simulate_points_campaign(seed_key(args.seed), load_table(args.truth, args.hexapod), mechanism,
                                          targets, default_registration(mechanism), args.elevations_deg,
                                          args.rotations_deg, args.temperatures_degC, range_um=range_um,
                                          across_um_per_m=across)

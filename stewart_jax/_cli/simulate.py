@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from ._common import check_outputs, geometry_args, noise_args, nominal_and_true
+from ._common import check_outputs, geometry_args, noise_args, nominal_and_true, seed_key
 
 
 def run(args: argparse.Namespace) -> int:
@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     if args.sigma_um < 0 or args.sigma_arcsec < 0 or args.tracker_sigma_um < 0:
         raise ValueError("the noise sigmas must be >= 0 (µm, ″)")
     nominal, true = nominal_and_true(args)
-    k_plan, k_noise = jax.random.split(jax.random.key(args.seed))
+    k_plan, k_noise = jax.random.split(seed_key(args.seed))
     targets = plan_poses(args.plan, k_plan, reachable_travel(nominal))
     tracker = tracker_for(nominal, sigma_um=args.tracker_sigma_um) if args.tracker else None
     sim = simulate_measurements(k_noise, nominal, true, targets, args.sigma_um, args.sigma_arcsec, tracker)

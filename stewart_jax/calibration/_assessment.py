@@ -35,10 +35,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Float
 
+from .._checks import to_device
 from .._special import regularized_gamma
 from .._units import report_factor, report_unit
 from ..mechanism._abstract import AbstractMechanism
-from ..mechanism._kinematics import ik_and_jacobian, solve_inverse_kinematics
+from ..mechanism._kinematics import ik_and_jacobian
 from ._determined import (
     Determination,
     describe_held,
@@ -49,7 +50,7 @@ from ._determined import (
     total_std,
     within_prior,
 )
-from ._identifiability import identifiability_report, noise_and_jacobian
+from ._identifiability import identifiability_report, kinematic_snapshot, noise_and_jacobian
 from ._problem import CalibrationData, stroke_residuals_compiled
 
 RANK_RTOL = 1e-9
@@ -146,7 +147,7 @@ def assess_calibration(
     poses = np.asarray(data.poses)
     m, n = poses.shape[0], calibrated.n_params
     warnings: list[str] = []
-    residuals = np.asarray(data.strokes) - np.asarray(solve_inverse_kinematics(calibrated, jnp.asarray(poses)).strokes)
+    residuals = np.asarray(data.strokes) - kinematic_snapshot(calibrated, poses, sigma_um, sigma_arcsec).readings
     bad = np.flatnonzero(~np.all(np.isfinite(residuals), axis=1)).tolist()
     dups = duplicate_rows(poses)
     if dups:
@@ -164,7 +165,7 @@ def assess_calibration(
         return CalibrationAssessment("nonfinite", 0, n, float("inf"), np.zeros(n, bool), nan, dups, bad,
                                      float("nan"), 6 * m - n, float("nan"), float("nan"), warnings,
                                      np.full((n, n), np.nan))
-    rep = identifiability_report(calibrated, jnp.asarray(poses), sigma_um, sigma_arcsec, rtol=RANK_RTOL)
+    rep = identifiability_report(calibrated, poses, sigma_um, sigma_arcsec, rtol=RANK_RTOL)
     basis = np.asarray(rep.unidentifiable)  # (n − rank, n), the null space
     blind = np.sum(basis**2, axis=0) if basis.size else np.zeros(n)
     identifiable = blind <= IDENTIFIABLE_TOL
@@ -275,19 +276,12 @@ def hold_undetermined(
         return np.asarray(params)
 
     def residuals(u):
-        return np.asarray(stroke_residuals_compiled(jnp.asarray(u), data, nominal))
+        return np.asarray(stroke_residuals_compiled(to_device(u), data, nominal))
 
     def jacobian(u):
-        return np.asarray(_residual_jacobian_jit(jnp.asarray(u), jnp.asarray(poses), nominal))
+        return -kinematic_snapshot(nominal.with_params(u), poses, sigma_um, sigma_arcsec).jacobian
 
     return refine_in_subspace(residuals, jacobian, u0, np.asarray(params), det)
-
-
-@eqx.filter_jit
-def _residual_jacobian_jit(u, poses, mechanism):
-    from ._identifiability import identification_jacobian
-
-    return -identification_jacobian(mechanism.with_params(u), poses)
 
 
 def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> Float[np.ndarray, "m 6"]:

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._checks import to_device
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import ik_and_jacobian
 from ._problem import ARCSEC, UM
@@ -51,21 +52,47 @@ def stroke_noise_covariance(
     return jp @ pose_cov @ jnp.swapaxes(jp, -1, -2)
 
 
+class KinematicSnapshot(NamedTuple):
+    """What the assessments need of a mechanism at a pose set, as NumPy arrays, from one compiled
+    program per mechanism type and shape (:func:`kinematic_snapshot`)."""
+
+    readings: np.ndarray  # (m, 6) the inverse kinematics (reading unit)
+    reachable: np.ndarray  # (m,) bool: every leg assembles at the pose
+    noise: np.ndarray  # (m, 6, 6) the stroke noise covariance C_j (reading unit²)
+    jacobian: np.ndarray  # (6m, n) the identification Jacobian ∂IK/∂u
+    pose_jacobian: np.ndarray  # (m, 6, 6) the kinematic Jacobian J_P = ∂IK/∂P
+
+
+def kinematic_snapshot(
+    geometry: AbstractMechanism, poses: Float[Array, "m 6"], sigma_um: float = 0.1, sigma_arcsec: float = 0.1
+) -> KinematicSnapshot:
+    """Readings, reachability, stroke noise covariance, identification and kinematic Jacobians at
+    ``poses``.
+
+    NOTE: one program serves the command line's reachability check, the determination at the
+    nominal geometry, the assessment of the calibrated one and the predicted control error (the
+    noise levels are arguments of it, not constants): a warm ``calibrate`` traces and lowers it
+    once instead of four programs."""
+    out = _kinematic_snapshot(geometry, to_device(np.asarray(poses, np.float64)), np.asarray(sigma_um, np.float64),
+                              np.asarray(sigma_arcsec, np.float64))
+    return KinematicSnapshot(*(np.asarray(x) for x in out))
+
+
 def noise_and_jacobian(
     geometry: AbstractMechanism, poses: Float[Array, "m 6"], sigma_um: float, sigma_arcsec: float
 ) -> tuple[Float[np.ndarray, "m 6 6"], Float[np.ndarray, "6m n"]]:
-    """The stroke noise covariance and the identification Jacobian at ``poses``, as NumPy arrays,
-    from one compiled program per mechanism type and shape (the noise levels are arguments of it,
-    not constants)."""
-    cov, jac = _noise_and_jacobian(geometry, jnp.asarray(poses), jnp.asarray(sigma_um, float),
-                                   jnp.asarray(sigma_arcsec, float))
-    return np.asarray(cov), np.asarray(jac)
+    """The stroke noise covariance and the identification Jacobian at ``poses``, as NumPy arrays
+    (:func:`kinematic_snapshot`)."""
+    snap = kinematic_snapshot(geometry, poses, sigma_um, sigma_arcsec)
+    return snap.noise, snap.jacobian
 
 
 @eqx.filter_jit
-def _noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec):
-    cov = stroke_noise_covariance(geometry, poses, pose_noise_covariance(sigma_um, sigma_arcsec))
-    return cov, identification_jacobian(geometry, poses)
+def _kinematic_snapshot(geometry, poses, sigma_um, sigma_arcsec):
+    sol = geometry.solve_inverse_kinematics(poses)
+    jp = ik_and_jacobian(geometry, poses)[2]
+    cov = jp @ pose_noise_covariance(sigma_um, sigma_arcsec) @ jnp.swapaxes(jp, -1, -2)
+    return sol.strokes, sol.reachable, cov, identification_jacobian(geometry, poses), jp
 
 
 class IdentifiabilityReport(NamedTuple):
@@ -140,15 +167,14 @@ def identifiability_report(
 
 def control_error_sensitivity(
     calibrated: AbstractMechanism, targets: Float[Array, "k 6"]
-) -> Float[Array, "k 6 n"]:
+) -> Float[np.ndarray, "k 6 n"]:
     """``∂P_reached/∂u_cal`` at each target: how an error in the calibrated parameters moves
     the pose the true mechanism reaches when commanded with ``IK(P, u_cal)``.
 
     To first order ``δP = J_P⁻¹·G_u·δu`` with ``G_u = ∂IK(P, u)/∂u`` and ``J_P = ∂IK/∂P``.
     """
-    jp = ik_and_jacobian(calibrated, targets)[2]
-    gu = identification_jacobian(calibrated, targets).reshape(jp.shape[0], 6, -1)
-    return jnp.linalg.solve(jp, gu)
+    snap = kinematic_snapshot(calibrated, targets)
+    return np.linalg.solve(snap.pose_jacobian, snap.jacobian.reshape(len(snap.reachable), 6, -1))
 
 
 def predicted_control_error_std(
@@ -157,7 +183,7 @@ def predicted_control_error_std(
     """``(n, 6)`` predicted standard deviation of the control error at each target, in µm
     (dx, dy, dz) and ″ (φ, θ, ψ): the Cramér–Rao floor of an unbiased estimator propagated
     through :func:`control_error_sensitivity`."""
-    M = np.asarray(control_error_sensitivity(calibrated, targets))
+    M = control_error_sensitivity(calibrated, targets)
     var = np.einsum("nik,kl,nil->ni", M, param_cov, M)
     std = np.sqrt(np.maximum(var, 0.0))
     return np.concatenate([std[:, :3] / UM, std[:, 3:] / ARCSEC], axis=-1)

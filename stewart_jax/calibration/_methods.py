@@ -296,7 +296,7 @@ def _traced_settings(solver: BatchedLevenbergMarquardt) -> BatchedLevenbergMarqu
     compiled program serves every ``max_steps``, ``ftol``, ``xtol``, ``gtol`` and damping (as
     Python numbers each value compiles its own); the same operations on the same values."""
     tolerances = (solver.ftol, solver.xtol, solver.gtol, solver.initial_damping, solver.min_damping)
-    values = (jnp.asarray(solver.max_steps, jnp.int32), *(jnp.asarray(v, jnp.float64) for v in tolerances))
+    values = (np.asarray(solver.max_steps, np.int32), *(np.asarray(v, np.float64) for v in tolerances))
     return eqx.tree_at(lambda s: (s.max_steps, s.ftol, s.xtol, s.gtol, s.initial_damping, s.min_damping), solver,
                        values)
 

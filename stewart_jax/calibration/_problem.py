@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import check_array, check_poses
+from .._checks import check_array, check_poses, on_host, to_device
 from .._units import (
     ARCSEC as ARCSEC,
     COMPONENTS as COMPONENTS,
@@ -241,9 +241,9 @@ def feasible_box(
     half_width_mrad = half_width if half_width_mrad is None else half_width_mrad
     if not (half_width > 0 and half_width_mrad > 0):
         raise ValueError(f"half_width must be positive (mm; mrad for angles), got {half_width}, {half_width_mrad}")
-    u = nominal.params
-    half = jnp.asarray(nominal.natural_scales(half_width, half_width_mrad))
-    return u - half, u + half
+    xp, (u,) = on_host(nominal.params)
+    half = xp.asarray(nominal.natural_scales(half_width, half_width_mrad))
+    return to_device(u - half), to_device(u + half)
 
 
 def calibration_problem(

@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from .._checks import valid_poses
+from .._checks import array_module, valid_poses
 from .._units import per_parameter
 
 
@@ -155,8 +155,9 @@ class AbstractMechanism(eqx.Module):
 
     def checked_params(self, params: Float[Array, "... n"]) -> Float[Array, "... n"]:
         """``params`` as float64 with a last axis of :attr:`n_params`, else a ``ValueError``
-        naming the family (and its parameter set); the first step of every ``with_params``."""
-        p = jnp.asarray(params, dtype=jnp.float64)
+        naming the family (and its parameter set); the first step of every ``with_params`` (NumPy
+        for a concrete value: its slices then compile nothing, :func:`array_module`)."""
+        p = array_module(params).asarray(params, dtype=np.float64)
         n = self.n_params
         if p.shape[-1:] != (n,):
             raise ValueError(f"{self.params_label} params must have a last axis of {n}, got shape {p.shape}")

@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import field_array, field_numpy, valid_poses
+from .._checks import field_array, field_numpy, on_host, to_device, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._pss_table1 import ACTUAL_LOWER, ACTUAL_UPPER, NOMINAL_LOWER, NOMINAL_UPPER
@@ -130,12 +130,13 @@ class PSSMechanism(AbstractMechanism):
         the paper's 36; then, for the ``"42"`` and ``"54"`` sets, the six rod lengths (mm); then,
         for ``"54"``, the axis tilts ``α_1..α_6, β_1..β_6`` (mrad)."""
         batch = self.upper.shape[:-2]
-        parts = [self.upper.reshape(*batch, 18), self.lower.reshape(*batch, 18)]
+        xp, (upper, lower, lengths, tilt) = on_host(self.upper, self.lower, self.lengths, self.tilt)
+        parts = [xp.reshape(upper, (*batch, 18)), xp.reshape(lower, (*batch, 18))]
         if self.param_set != "36":
-            parts.append(self.lengths)
+            parts.append(lengths)
         if self.param_set == "54":
-            parts.append(self.tilt)
-        return jnp.concatenate(parts, axis=-1)
+            parts.append(tilt)
+        return to_device(xp.concatenate(parts, axis=-1))
 
     @property
     def rod_lengths(self) -> Float[Array, "6"]:

@@ -46,7 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import field_array, field_travel, valid_poses
+from .._checks import field_array, field_travel, on_host, to_device, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, population_totals
 from ._registry import check_file_header, check_keys, read_travel, register_family, register_preset, travel_dict
@@ -133,9 +133,11 @@ class RUSMechanism(AbstractMechanism):
         """``platform`` (18), ``base`` (18), ``crank_lengths`` (6), ``rod_lengths`` (6) (mm), and in
         the ``"54"`` set ``crank_zero`` (6, rad)."""
         batch = self.base.shape[:-2]
-        parts = [self.platform.reshape(*batch, 18), self.base.reshape(*batch, 18), self.crank_lengths,
-                 self.rod_lengths] + ([self.crank_zero] if self.param_set == "54" else [])
-        return jnp.concatenate(parts, axis=-1)
+        xp, (platform, base, crank, rod, zero) = on_host(self.platform, self.base, self.crank_lengths,
+                                                         self.rod_lengths, self.crank_zero)
+        parts = [xp.reshape(platform, (*batch, 18)), xp.reshape(base, (*batch, 18)), crank, rod] + (
+            [zero] if self.param_set == "54" else [])
+        return to_device(xp.concatenate(parts, axis=-1))
 
     @property
     def param_units(self) -> tuple[str, ...]:

@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._checks import field_array, field_numbers, field_travel, valid_poses
+from .._checks import field_array, field_numbers, field_travel, on_host, to_device, valid_poses
 from .._math import rotation_matrix
 from ._abstract import AbstractMechanism, IKSolution, dense_parameter_jacobian, population_totals
 from ._registry import check_file_header, check_keys, read_travel, register_family, travel_dict
@@ -126,9 +126,9 @@ class UPSMechanism(AbstractMechanism):
     def params(self) -> Float[Array, "42"]:
         """The 42 calibration parameters: ``platform`` (18), ``base`` (18), ``lengths0`` (6)."""
         batch = self.base.shape[:-2]
-        return jnp.concatenate(
-            [self.platform.reshape(*batch, 18), self.base.reshape(*batch, 18), self.lengths0], axis=-1
-        )
+        xp, (platform, base, lengths0) = on_host(self.platform, self.base, self.lengths0)
+        return to_device(xp.concatenate([xp.reshape(platform, (*batch, 18)), xp.reshape(base, (*batch, 18)), lengths0],
+                                        axis=-1))
 
     @property
     def param_units(self) -> tuple[str, ...]:

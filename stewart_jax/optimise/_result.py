@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import equinox as eqx
+import jax
 import numpy as np
 from jaxtyping import Array, Float, Int
 
@@ -35,13 +36,20 @@ STATUS_NAMES = tuple(name for name, _ in _NAMES)
 """The stable names of the statuses in files and on the command line, in code order."""
 
 
+def _code(status) -> np.ndarray:
+    """The integer code(s) of a status on the host (an enumeration item is a pytree of one leaf):
+    comparing there compiles nothing, where ``==`` on the item runs an eager JAX program."""
+    return np.asarray(jax.tree_util.tree_leaves(status)[0])
+
+
 def status_name(status) -> str | np.ndarray:
     """The stable name of a status (an array of names for a batch), as written to JSON:
     ``"success"`` (the solver's own convergence test held), ``"max_steps"``, ``"nonfinite"``,
     ``"target"`` (the caller's target was reached) or ``"stall"`` (the search settled)."""
-    out = np.full(np.shape(np.asarray(status == RESULTS.successful)), "", dtype=object)
+    codes = _code(status)
+    out = np.full(codes.shape, "", dtype=object)
     for name, item in _NAMES:
-        out[np.asarray(status == item)] = name
+        out[codes == _code(item)] = name
     return str(out) if out.ndim == 0 else out
 
 
