@@ -457,15 +457,15 @@ def _f24(x, p):
     return jnp.minimum(sum1, d * dim + s * sum2) + 10.0 * (dim - sum3) + 1e4 * _penalty(x) + p.fopt
 
 
-_BRANCHES = (_f1, _f2, _f3, _f4, _f5, _f6, _f7, _f8, _f9, _f10, _f11, _f12, _f13, _f14, _f15, _f16,
+BRANCHES = (_f1, _f2, _f3, _f4, _f5, _f6, _f7, _f8, _f9, _f10, _f11, _f12, _f13, _f14, _f15, _f16,
              _schaffers, _schaffers, _f19, _f20, _gallagher_value, _gallagher_value, _f23, _f24)
 
 
 def evaluate(x, p: Instance):
     """``f(x)`` of the BBOB problem ``p`` at one point ``x`` (dim,); jit/vmap freely."""
-    return jax.lax.switch(p.fid - 1, _BRANCHES, x, p)
+    return jax.lax.switch(p.fid - 1, BRANCHES, x, p)
 
 
 def evaluate_one(function: int, x, p: Instance):
     """The same without the switch (``function`` static): one branch compiled."""
-    return _BRANCHES[function - 1](x, p)
+    return BRANCHES[function - 1](x, p)

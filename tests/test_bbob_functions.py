@@ -68,3 +68,35 @@ def test_bad_input_is_refused():
         bbob.make_instance(25, 1, 5)
     with pytest.raises(ValueError, match="dimension must be at least 2"):
         bbob.make_instance(1, 1, 1)
+
+
+@pytest.mark.slow  # three Nelder-Mead programs and the grouped one: 25 s
+def test_the_grouped_batch_gives_each_problem_its_own_run(tmp_path):
+    """The batched suite grouped by function (one program, ``lax.switch`` on an index the batch
+    shares) against each problem run alone on its own function (no switch, no batch): the same
+    best values and evaluation counts. Nelder-Mead starts from the centre, so both runs are
+    deterministic. Then the benchmark's smoke run writes its results with the targets."""
+    import bbob
+    import bbob_batched
+
+    import stewart_jax.optimise as so
+
+    functions, instances, dim, factor = [1, 8, 15], [1, 2], 2, 200
+    grouped = bbob.batched("NM", functions, dim, instances, factor)
+    lower, upper = jnp.full(dim, bbob.LOWER), jnp.full(dim, bbob.UPPER)
+    gaps, evaluations = [], []
+    for f in functions:  # function-major, as the grouped batch
+        alone = jax.jit(lambda p, f=f: so.minimise(lambda x, a: bbob.bbob.evaluate_one(f, x, a),
+                                                   bbob.our_solver("NM", p.fopt), lower, upper, jax.random.key(0),
+                                                   max_evaluations=factor * dim, args=p))
+        for inst in instances:
+            p = jax.tree.map(jnp.asarray, bbob.bbob.make_instance(f, inst, dim))
+            res = alone(p)
+            gaps.append(float(res.cost) - float(p.fopt))
+            evaluations.append(int(res.n_evaluations))
+    assert grouped["evaluations_by_problem"] == evaluations
+    # the same arithmetic in two compiled programs: equal to rounding of f (|f| up to ~1e3 here)
+    np.testing.assert_allclose(grouped["best_minus_fopt"], gaps, rtol=1e-9, atol=1e-9)
+    assert bbob_batched.main(["--quick", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "bbob_batched_quick.md").read_text()
+    assert "compile at most 10 s per method and dimension" in text and "| NM | 2 |" in text
