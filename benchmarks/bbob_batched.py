@@ -18,6 +18,8 @@ loop.
 
     python benchmarks/bbob_batched.py                 # CMA-ES and NM, 2-, 5-, 10-D, 10 instances
     python benchmarks/bbob_batched.py --quick         # f1, f8, f15 in 2-D, 2 instances (a smoke test)
+    python benchmarks/bbob_batched.py --dims 2 --instances 1-100 --name bbob_batched_wide
+                                                      # 100 instances per function: a wider batch
 """
 
 from __future__ import annotations
@@ -112,7 +114,8 @@ def main(argv=None) -> int:
     ap.add_argument("--dims", default="2,5,10")
     ap.add_argument("--instances", default="1-5,101-105")
     ap.add_argument("--budget-factor", type=int, default=1000)
-    ap.add_argument("--out", default=RESULTS, help="folder for bbob_batched.{json,md}")
+    ap.add_argument("--out", default=RESULTS, help="folder for the results")
+    ap.add_argument("--name", default=None, help="results file name (default bbob_batched, or bbob_batched_quick)")
     args = ap.parse_args(argv)
 
     def expand(text):
@@ -146,7 +149,7 @@ def main(argv=None) -> int:
     payload = {"functions": functions, "dims": dims, "instances": instances, "budget_factor": budget_factor,
                "ours": ours, "references": references, "verdicts": verdicts(ours, references),
                "wall_s": time.perf_counter() - t_start, "versions": bbob._versions()}
-    name = "bbob_batched_quick" if args.quick else "bbob_batched"
+    name = args.name or ("bbob_batched_quick" if args.quick else "bbob_batched")
     write_results(name, payload, markdown(payload), out=args.out)
     print(markdown(payload))
     return 0

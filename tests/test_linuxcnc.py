@@ -175,6 +175,46 @@ def test_refusals():
         to_linuxcnc(preset("nominal"))
 
 
+def _strut_condition(mech) -> float:
+    """Condition number of the strut Jacobian at the zero pose by central differences of the
+    strut lengths (rotations scaled by the platform radius): independent of the export's check."""
+    import jax.numpy as jnp
+
+    h = 1e-6
+    q = lambda p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).strokes)  # noqa: E731
+    jac = np.stack([(q(h * e) - q(-h * e)) / (2 * h) for e in np.eye(6)], axis=1)
+    jac[:, 3:] /= np.max(np.linalg.norm(np.asarray(mech.platform), axis=1))
+    s = np.linalg.svd(jac, compute_uv=False)
+    return s[0] / s[-1]
+
+
+def test_a_near_singular_geometry_is_refused_before_any_file():
+    """Struts all but parallel (every base joint under its platform joint) hold neither sideways
+    motion nor a turn about z: the export refuses, naming the condition number and a direction;
+    the same platform on base joints spread out and turned 25° (struts with a tangential lean, as
+    every real hexapod's) passes, as every preset does."""
+    from stewart_jax.mechanism import UPSMechanism
+    from stewart_jax.mechanism._linuxcnc import SINGULAR_CONDITION
+
+    m = preset("rubin_m2")
+    base, platform = np.asarray(m.base), np.asarray(m.platform)
+    for name in ("rubin_camera", "rubin_m2", "fast_stewart"):
+        assert _strut_condition(preset(name)) < 10.0
+    for spread, turn_deg, refused in ((1.0001, 0.0, True), (1.2, 25.0, False)):
+        c, s_ = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
+        b = platform @ np.array([[c, s_, 0.0], [-s_, c, 0.0], [0.0, 0.0, 1.0]]) * np.array([spread, spread, 1.0])
+        b[:, 2] = base[:, 2]
+        mech = UPSMechanism(b, platform, m.v0, np.linalg.norm(platform + np.asarray(m.v0) - b, axis=1),
+                            stroke_limits=(-10.0, 10.0))
+        assert (_strut_condition(mech) > SINGULAR_CONDITION) == refused
+        if refused:
+            named = r"singular at its zero pose.*condition number.*[+-]\d\.\d\d·(x|y|rz)\b"
+            with pytest.raises(ValueError, match=named):
+                to_linuxcnc(mech)
+        else:
+            assert to_linuxcnc(mech).ini
+
+
 def test_cli_writes_both_files(tmp_path, capsys):
     out = tmp_path / "cfg"
     assert cli_main(["export", "rubin_m2", "--format", "linuxcnc", "--out", str(out)]) == 2
