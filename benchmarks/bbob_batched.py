@@ -45,7 +45,7 @@ def reference_loop(name: str, functions, dim: int, instances, budget_factor: int
     """``name`` (a reference of ``bbob.run_reference``) on every problem, no COCO observer."""
     import cocoex
 
-    suite = cocoex.Suite("bbob", f"instances: {','.join(map(str, instances))}",
+    suite = cocoex.Suite("bbob", f"instances: {_ranges(instances)}",
                          f"function_indices: {','.join(map(str, functions))} dimensions: {dim}")
     solved = n = 0
     t0 = time.perf_counter()
@@ -58,6 +58,20 @@ def reference_loop(name: str, functions, dim: int, instances, budget_factor: int
     seconds = time.perf_counter() - t0
     return {"method": name, "dim": dim, "problems": n, "solved": solved, "seconds": seconds,
             "solved_per_s": solved / seconds}
+
+
+def _ranges(numbers) -> str:
+    """``1-5,101-105`` for COCO's option string (which refuses a long list of single numbers)."""
+    out, numbers = [], sorted(numbers)
+    start = prev = numbers[0]
+    for n in [*numbers[1:], None]:
+        if n is not None and n == prev + 1:
+            prev = n
+            continue
+        out.append(f"{start}-{prev}" if prev > start else f"{start}")
+        if n is not None:
+            start = prev = n
+    return ",".join(out)
 
 
 def verdicts(ours: list[dict], references: list[dict]) -> list[dict]:
@@ -82,7 +96,7 @@ def markdown(payload: dict) -> str:
     lines = [
         "# Batched BBOB beside the reference loops, one run",
         "",
-        f"Functions {', '.join(f'f{f}' for f in payload['functions'])}, instances {payload['instances']}, "
+        f"Functions {_ranges(payload['functions'])} of COCO's bbob suite, instances {_ranges(payload['instances'])}, "
         f"budget {payload['budget_factor']} × D evaluations, stopping at f_opt + 1e-8. Ours: one program per "
         "method and dimension, grouped by function (compile apart); the references: Python loops over "
         "`cocoex`'s problems, no observer.",
