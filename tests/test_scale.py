@@ -44,3 +44,26 @@ def test_report_memory_is_linear_in_the_poses():
     tracemalloc.stop()
     jac_bytes = 6 * 4000 * 36 * 8
     assert peak < 40 * jac_bytes, peak / 1e6
+
+
+def test_a_large_calibration_says_each_stage_with_its_time(tmp_path, capsys, monkeypatch):
+    """At PROGRESS_POSES poses and more, calibrate says on stderr when the fit and the assessment
+    start and end (their times), and that the fit's JSON is written before the assessment starts;
+    below it, nothing. The threshold is lowered to the paper's 8 poses here, to keep the test short."""
+    import json
+
+    from stewart_jax._cli import calibrate as cli_calibrate
+    from stewart_jax._cli import main
+
+    assert main(["simulate", "--out", str(tmp_path / "p8.csv"), "--plan", "paper8", "--seed", "0"]) == 0
+    argv = ["calibrate", str(tmp_path / "p8.csv"), "--json", str(tmp_path / "c.json")]
+    capsys.readouterr()
+    assert main(argv) in (0, 3)
+    assert "calibrate: fitting" not in capsys.readouterr().err
+    monkeypatch.setattr(cli_calibrate, "PROGRESS_POSES", 8)
+    assert main(argv) in (0, 3)
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("calibrate: ")]
+    assert [line.split(" ")[1] for line in lines] == ["fitting", "fit", "assessing", "assessment"], lines
+    assert "8 poses with lm-batched" in lines[0] and f"written to {tmp_path / 'c.json'}" in lines[1]
+    assert float(lines[3].split(" in ")[1].split(" s")[0]) >= 0
+    assert json.loads((tmp_path / "c.json").read_text())["n_poses"] == 8

@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         options["max_evaluations"] = args.max_evaluations
     if args.max_steps is not None:
         options["max_steps"] = args.max_steps
+    big = data.n_poses >= PROGRESS_POSES
+    _progress(big, f"fitting {data.n_poses} poses with {args.method} …")
     t0 = time.perf_counter()
     result = jax.block_until_ready(calibrate(problem, args.method, seed_key(args.seed), **options))
     params = np.asarray(result.params)
@@ -109,9 +111,13 @@ def run(args: argparse.Namespace) -> int:
         out["half_width_mrad"] = args.half_width if args.half_width_mrad is None else args.half_width_mrad
     if args.json:
         write_json(args.json, out)  # the fit first: a later step that fails never loses it
+    _progress(big, f"fit done in {seconds:.1f} s (status {out['status']})"
+              + (f", written to {args.json}" if args.json else ""))
     calibrated = nominal.with_params(params)
     assessment = None
     if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
+        _progress(big, "assessing the calibration (identifiability, goodness of fit, predicted control error) …")
+        t_assess = time.perf_counter()
         assessment = assess_calibration(calibrated, data, args.sigma_um, args.sigma_arcsec, nominal=nominal)
         out.update(_assessment_keys(assessment))
         if assessment.status != "nonfinite":
@@ -121,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
             out["predicted_control_error_std_max"] = dict(
                 zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
                     np.max(std, axis=0).tolist(), strict=True))
+        _progress(big, f"assessment done in {time.perf_counter() - t_assess:.1f} s")
     else:
         out["data_status"] = "nonfinite"
         out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
@@ -187,6 +194,16 @@ def _check_reachable(nominal, data, args) -> None:
             f"{args.file}: rows {(bad + 1).tolist()[:10]}{' …' if bad.size > 10 else ''} (1-based, after the header) "
             f"are poses the nominal geometry {args.geometry!r} cannot reach — are the lengths in mm and the angles "
             "in degrees, and is this the right geometry?")
+
+
+PROGRESS_POSES = 1000
+"""A calibration of at least this many poses says on stderr when each stage (the fit, the
+assessment) starts and ends, with its time: at 10⁴ poses each takes from seconds to minutes."""
+
+
+def _progress(show: bool, text: str) -> None:
+    if show:
+        print(f"calibrate: {text}", file=sys.stderr, flush=True)
 
 
 PLAUSIBLE_BOX_FACTOR = 10.0
