@@ -53,3 +53,12 @@ def write_results(name: str, payload: dict, markdown: str, out: str = RESULTS) -
         f"jax {info['jax']}, numpy {info['numpy']}; {info['date_utc']} UTC\n\n"
     )
     write_text_atomic(os.path.join(out, f"{name}.md"), header + markdown.rstrip() + "\n")
+
+
+def expand(text: str) -> list[int]:
+    """``"1-5,101-105"`` → ``[1, …, 5, 101, …, 105]``: the numbers of an option."""
+    out = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b or a) + 1))
+    return out

@@ -49,7 +49,7 @@ jax.config.update("jax_enable_x64", True)
 import _bbob_jax as bbob  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import RESULTS, write_results  # noqa: E402
+from _common import RESULTS, expand, write_results  # noqa: E402
 
 import stewart_jax.optimise as so  # noqa: E402
 
@@ -437,13 +437,6 @@ def main(argv=None) -> int:
             json.dump(payload, fh, indent=1)
             fh.write("\n")
         return 0
-
-    def expand(text):
-        out = []
-        for part in text.split(","):
-            a, _, b = part.partition("-")
-            out += list(range(int(a), int(b or a) + 1))
-        return out
 
     if args.quick:
         functions, dims, instances = [1, 2, 8, 10, 15], [2, 5], [1, 2, 3]

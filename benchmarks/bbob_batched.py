@@ -32,7 +32,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import bbob  # noqa: E402  (sets float64)
-from _common import RESULTS, write_results  # noqa: E402
+from _common import RESULTS, expand, write_results  # noqa: E402
 
 TARGETS = {
     "CMA-ES": ("pycma", 100.0, "CMA-ES batched at least 100× pycma's loop, problems solved per second"),
@@ -132,18 +132,11 @@ def main(argv=None) -> int:
     ap.add_argument("--name", default=None, help="results file name (default bbob_batched, or bbob_batched_quick)")
     args = ap.parse_args(argv)
 
-    def expand(text):
-        out = []
-        for part in text.split(","):
-            a, _, b = part.partition("-")
-            out += list(range(int(a), int(b or a) + 1))
-        return out
-
     if args.quick:
         functions, dims, instances, budget_factor = [1, 8, 15], [2], [1, 2], 200
     else:
-        functions, dims, instances, budget_factor = list(range(1, 25)), expand(args.dims), expand(args.instances), \
-            args.budget_factor
+        functions, dims, instances = list(range(1, 25)), expand(args.dims), expand(args.instances)
+        budget_factor = args.budget_factor
     unknown = [m for m in args.methods.split(",") if m not in bbob.OURS]
     if unknown:
         raise SystemExit(f"unknown method(s) {unknown}; choose from {list(bbob.OURS)}")

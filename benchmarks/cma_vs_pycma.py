@@ -43,7 +43,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import RESULTS, write_results  # noqa: E402
+from _common import RESULTS, expand, write_results  # noqa: E402
 
 import stewart_jax  # noqa: E402, F401  (float64)
 from stewart_jax._files import write_text_atomic  # noqa: E402
@@ -51,14 +51,6 @@ from stewart_jax.optimise import CMAES, minimise  # noqa: E402
 
 RUNS = os.path.join(RESULTS, "cma_vs_pycma_runs.json")
 DEFAULT_FUNCTIONS = {"ipop": "1-14", "bipop": "15-24"}
-
-
-def expand(text: str) -> list[int]:
-    out = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out += list(range(int(a), int(b or a) + 1))
-    return out
 
 
 def _key(r: dict) -> tuple:

@@ -132,7 +132,7 @@ def test_the_chi2_tails_match_jax():
 # operation again.
 SESSION_BUDGET = 200
 
-SESSION = textwrap.dedent("""
+COUNTING = textwrap.dedent("""
     import json, os, sys
     from jax._src import monitoring
     lowered = []
@@ -140,7 +140,11 @@ SESSION = textwrap.dedent("""
         lambda name, d, **kw: lowered.append(name) if name == "{lowered}" else None)
     from stewart_jax._cli import main
     os.chdir(sys.argv[1])
-    counts = {{}}
+""").format(lowered=LOWERED)
+"""The head of a script run in a fresh process: it counts the programs lowered into ``lowered``."""
+
+SESSION = COUNTING + textwrap.dedent("""
+    counts = {}
     for step, argv in [
         ("simulate", ["simulate", "--out", "p8.csv", "--plan", "paper8", "--seed", "0"]),
         ("simulate", ["simulate", "--out", "p42.csv", "--plan", "validation42", "--seed", "1"]),
@@ -156,7 +160,7 @@ SESSION = textwrap.dedent("""
         assert code in (0, 3), (argv, code)
         counts[step] = counts.get(step, 0) + len(lowered) - before
     print(json.dumps(counts))
-""").format(lowered=LOWERED)
+""")
 
 
 @pytest.mark.slow  # a whole command-line session in a fresh process: 110 s
@@ -176,18 +180,11 @@ def test_a_typical_session_compiles_few_programs(tmp_path):
 # and the control-error prediction, and the stroke residual of the refit); 24 before.
 CALIBRATE_BUDGET = 4
 
-ONE_COMMAND = textwrap.dedent("""
-    import os, sys
-    from jax._src import monitoring
-    lowered = []
-    monitoring.register_event_duration_secs_listener(
-        lambda name, d, **kw: lowered.append(name) if name == "{lowered}" else None)
-    from stewart_jax._cli import main
-    os.chdir(sys.argv[1])
+ONE_COMMAND = COUNTING + textwrap.dedent("""
     code = main(sys.argv[2:])
     assert code in (0, 3), code
     print(len(lowered))
-""").format(lowered=LOWERED)
+""")
 
 
 def test_one_calibration_lowers_few_programs(tmp_path):

@@ -52,8 +52,7 @@ def test_a_large_calibration_says_each_stage_with_its_time(tmp_path, capsys, mon
     below it, nothing. The threshold is lowered to the paper's 8 poses here, to keep the test short."""
     import json
 
-    from stewart_jax._cli import calibrate as cli_calibrate
-    from stewart_jax._cli import main
+    from stewart_jax._cli import calibrate as cli_calibrate, main
 
     assert main(["simulate", "--out", str(tmp_path / "p8.csv"), "--plan", "paper8", "--seed", "0"]) == 0
     argv = ["calibrate", str(tmp_path / "p8.csv"), "--json", str(tmp_path / "c.json")]
