@@ -194,7 +194,7 @@ def test_a_near_singular_geometry_is_refused_before_any_file():
     the same platform on base joints spread out and turned 25° (struts with a tangential lean, as
     every real hexapod's) passes, as every preset does."""
     from stewart_jax.mechanism import UPSMechanism
-    from stewart_jax.mechanism._linuxcnc import SINGULAR_CONDITION
+    from stewart_jax.mechanism._genhexkins import SINGULAR_CONDITION, to_genhexkins
 
     m = preset("rubin_m2")
     base, platform = np.asarray(m.base), np.asarray(m.platform)
@@ -209,8 +209,9 @@ def test_a_near_singular_geometry_is_refused_before_any_file():
         assert (_strut_condition(mech) > SINGULAR_CONDITION) == refused
         if refused:
             named = r"singular at its zero pose.*condition number.*[+-]\d\.\d\d·(x|y|rz)\b"
-            with pytest.raises(ValueError, match=named):
-                to_linuxcnc(mech)
+            for export in (to_linuxcnc, to_genhexkins):
+                with pytest.raises(ValueError, match=named):
+                    export(mech)
         else:
             assert to_linuxcnc(mech).ini
 

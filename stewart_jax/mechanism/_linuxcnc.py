@@ -36,13 +36,6 @@ _JOINT_MAX_VELOCITY_MM_S = 1.0
 _JOINT_MAX_ACCELERATION_MM_S2 = 10.0
 _ANGULAR_MAX_VELOCITY_DEG_S = 0.5
 _MAX_ANGLE_RAD = 0.5
-SINGULAR_CONDITION = 1e3
-"""The largest condition number of the strut Jacobian at the zero pose that an export accepts
-(rotation columns in mm per rad divided by the platform radius, so that every column is a
-dimensionless strut-length change; the presets have 1.7–7.2). Beyond it a strut error of 1 µm
-moves the pose by about a millimetre, and LinuxCNC's iterative forward kinematics may not
-converge."""
-_POSE_AXES = ("x", "y", "z", "rx", "ry", "rz")
 
 
 class LinuxCNCConfig(NamedTuple):
@@ -116,7 +109,6 @@ def to_linuxcnc(
             joint_angle_limit=mechanism.joint_angle_limit,
             travel=mechanism.travel,
         )
-    _check_not_singular(mechanism)
     if not name or any(c in name for c in "/\\ \t\n[]"):
         raise ValueError(f"the configuration name must be a plain file stem, got {name!r}")
     base = np.asarray(mechanism.base, dtype=np.float64)
@@ -152,29 +144,6 @@ def to_linuxcnc(
         joint_limits_mm=joint_limits,
         axis_limits=axis_limits,
     )
-
-
-def _check_not_singular(mechanism: UPSMechanism) -> None:
-    """Refuse a geometry whose struts do not hold the platform at its zero pose (a ``ValueError``
-    naming the condition number and the pose direction the struts hold least)."""
-    import jax.numpy as jnp
-
-    jac = np.asarray(mechanism.ik_and_jacobian(jnp.zeros((1, 6)))[2][0], np.float64)
-    radius = float(np.max(np.linalg.norm(np.asarray(mechanism.platform, np.float64), axis=1)))
-    scaled = jac / np.array([1.0] * 3 + [max(radius, 1e-300)] * 3)
-    if not np.all(np.isfinite(scaled)):
-        raise ValueError("the strut Jacobian at the zero pose is not finite: the geometry cannot be exported")
-    _, s, vt = np.linalg.svd(scaled)
-    condition = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
-    if condition > SINGULAR_CONDITION:
-        weak = vt[-1] / np.max(np.abs(vt[-1]))
-        direction = " ".join(f"{c:+.2f}·{a}" for c, a in zip(weak, _POSE_AXES, strict=True) if abs(c) >= 0.05)
-        raise ValueError(
-            f"the geometry is (near-)singular at its zero pose: the strut Jacobian's condition number is "
-            f"{condition:.3g} (rotations scaled by the platform radius {radius:.4g} mm; the presets have 1.7–7.2, "
-            f"the export accepts at most {SINGULAR_CONDITION:g}). The struts barely hold the pose direction "
-            f"{direction}, so a strut error of 1 µm would move the platform by about {condition * 1e-3:.3g} mm and "
-            "LinuxCNC's forward kinematics could fail to converge: check the joint coordinates")
 
 
 def _num(x: float) -> str:
