@@ -157,5 +157,17 @@ def test_a_report_never_says_the_gap_closed_when_it_grew():
                               "absorbed_by": {}, "notes": [], "indistinguishable_from": []})
     text = "\n".join(fake.summary())
     assert "not explained" in text and "close the gap" not in text
+    # the term search's own figure is not repeated as if it stood: the refitted model's is named
+    lines = [line for line in fake.summary() if line.startswith("discovered")]
+    assert lines == ["discovered, not an explanation: a sine (held-out RMS 1e+08 µm in the term search; the "
+                     "refitted model's is 1e+08 µm)"], lines
     shrunk = dataclasses.replace(fake, gap_after=0.6)
     assert "discovered terms close the gap" in "\n".join(shrunk.summary())
+    assert "discovered: a sine" in "\n".join(shrunk.summary())
+    # a candidate removing a sliver of the gap is not called a partial explanation ("removes 0 %")
+    unexplained = dataclasses.replace(fake, explained=False, discovered=[], partial=[
+        {"effect": "cable_inertia", "gap_share": 0.003, "heldout_rms": 0.999},
+        {"effect": "cabin_mass", "gap_share": 0.4, "heldout_rms": 0.8}])
+    text = "\n".join(unexplained.summary())
+    assert "not an explanation: cable_inertia barely shrinks the held-out gap" in text
+    assert "partial explanation: cabin_mass removes 40 % of the gap" in text and "removes 0 %" not in text

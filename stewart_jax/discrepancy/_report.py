@@ -135,6 +135,11 @@ def _distinct(a: float, b: float) -> tuple[str, str]:
     return sa, sb
 
 
+MIN_PARTIAL_SHARE = 0.01
+"""The share of the held-out gap (above the noise floor) a candidate must remove to be called a
+partial explanation; less is reported as barely shrinking the gap, not as "removes 0 %"."""
+
+
 @dataclasses.dataclass(frozen=True)
 class DiagnosisReport:
     """Result of :func:`~stewart_jax.discrepancy.diagnose`; ``to_dict()`` gives the JSON of
@@ -225,7 +230,8 @@ class DiagnosisReport:
         gap = f"held-out RMS {self.gap_before:.3g} → {self.gap_after:.3g} {unit}, noise floor {self.noise_floor:.3g}"
         lines = []
         claimed = self.named_effect is not None or (self.explained and self.discovered)
-        if self.detected and claimed and not self.gap_after < self.gap_before:
+        refuted = self.detected and claimed and not self.gap_after < self.gap_before
+        if refuted:
             lines.append(f"not explained: the {'named effect' if self.named_effect else 'discovered terms'} fit the "
                          f"training rows but the held-out gap did not shrink ({gap}); check the record's units "
                          "(mm and degrees) and that the model applies")
@@ -248,16 +254,22 @@ class DiagnosisReport:
                 lines.append(f"partial explanation: {p['effect']} passes the held-out test, but "
                              f"{', '.join(p['needs'])} explain(s) significantly more on top of it")
                 continue
-            if p["gap_share"] > 0:
+            if p["gap_share"] >= MIN_PARTIAL_SHARE:
                 lines.append(f"partial explanation: {p['effect']} removes {100 * p['gap_share']:.0f} % of the gap "
                              f"(held-out RMS {p['heldout_rms']:.3g} {unit}); the rest is unexplained")
-            else:  # significant on the training rows, but the held-out gap does not shrink
-                how = "widens" if p["heldout_rms"] > self.gap_before else "does not shrink"
+            else:  # significant on the training rows, but the held-out gap does not (or barely) shrink
+                how = ("widens" if p["heldout_rms"] > self.gap_before else
+                       "barely shrinks" if p["gap_share"] > 0 else "does not shrink")
                 before, after = _distinct(self.gap_before, p["heldout_rms"])
+                sliver = f"; less than {100 * MIN_PARTIAL_SHARE:.0f} % of the gap" if how == "barely shrinks" else ""
                 lines.append(f"not an explanation: {p['effect']} {how} the held-out gap "
-                             f"(RMS {before} → {after} {unit})")
+                             f"(RMS {before} → {after} {unit}{sliver})")
         for t in self.discovered:
-            lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
+            if refuted:  # the search's own (linearised) figure, which the refitted model does not bear out
+                lines.append(f"discovered, not an explanation: {t['description']} (held-out RMS {t['gap_after']:.3g} "
+                             f"{unit} in the term search; the refitted model's is {self.gap_after:.3g} {unit})")
+            else:
+                lines.append(f"discovered: {t['description']} (held-out RMS after it {t['gap_after']:.3g} {unit})")
         for name, params in self.absorbed_by.items():
             shown = ", ".join(params[:8]) + (", …" if len(params) > 8 else "")
             lines.append(f"{name}: absorbed by the geometry (indistinguishable from a change of parameters {shown})")
