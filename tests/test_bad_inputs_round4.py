@@ -171,3 +171,11 @@ def test_a_report_never_says_the_gap_closed_when_it_grew():
     text = "\n".join(unexplained.summary())
     assert "not an explanation: cable_inertia barely shrinks the held-out gap" in text
     assert "partial explanation: cabin_mass removes 40 % of the gap" in text and "removes 0 %" not in text
+    # residuals far below the stated noise (a record in metres and radians read as mm and degrees:
+    # "no discrepancy detected" at RMS 32 against a floor of 718) say what they contradict
+    quiet = dataclasses.replace(fake, detected=False, explained=False, discovered=[], gap_before=32.2,
+                                gap_after=32.2, noise_floor=718.0, noise_estimated=False, detect_p_value=1.0)
+    text = "\n".join(quiet.summary())
+    assert "no discrepancy detected" in text and "22.3× below the noise floor" in text and "metres for mm" in text
+    for ok in (dataclasses.replace(quiet, gap_before=700.0), dataclasses.replace(quiet, noise_estimated=True)):
+        assert "below the noise floor" not in "\n".join(ok.summary())

@@ -135,6 +135,11 @@ def _distinct(a: float, b: float) -> tuple[str, str]:
     return sa, sb
 
 
+QUIET_FACTOR = 0.5
+"""Held-out residuals whose RMS is below this fraction of the noise floor, with the noise given
+(not estimated), contradict the noise model: at the hundreds of residuals of a held-out set the
+ratio of RMS to floor stays within a few per cent of 1 when the stated noise is right."""
+
 MIN_PARTIAL_SHARE = 0.01
 """The share of the held-out gap (above the noise floor) a candidate must remove to be called a
 partial explanation; less is reported as barely shrinking the gap, not as "removes 0 %"."""
@@ -249,6 +254,13 @@ class DiagnosisReport:
         else:
             lines.append(f"a discrepancy is present that no candidate explains (held-out p = "
                          f"{self.detect_p_value:.3g}); {gap}")
+        if not self.noise_estimated and self.gap_before < QUIET_FACTOR * self.noise_floor:
+            ratio = self.noise_floor / self.gap_before if self.gap_before > 0 else math.inf
+            lines.append(
+                f"the held-out residuals (RMS {self.gap_before:.3g} {unit}) are {ratio:.3g}× "
+                f"below the noise floor ({self.noise_floor:.3g} {unit}): the stated noise is far too large for these "
+                "data, or the data are not in the units the model reads (metres for mm, radians for degrees?); at "
+                "this noise no discrepancy can be detected")
         for p in self.partial:
             if p.get("needs"):
                 lines.append(f"partial explanation: {p['effect']} passes the held-out test, but "
