@@ -50,7 +50,7 @@ from ._determined import (
     total_std,
     within_prior,
 )
-from ._identifiability import identifiability_report, kinematic_snapshot, noise_and_jacobian
+from ._identifiability import KinematicSnapshot, kinematic_snapshot, report_from_arrays
 from ._problem import CalibrationData, stroke_residuals_compiled
 
 RANK_RTOL = 1e-9
@@ -147,7 +147,8 @@ def assess_calibration(
     poses = np.asarray(data.poses)
     m, n = poses.shape[0], calibrated.n_params
     warnings: list[str] = []
-    residuals = np.asarray(data.strokes) - kinematic_snapshot(calibrated, poses, sigma_um, sigma_arcsec).readings
+    snap = kinematic_snapshot(calibrated, poses, sigma_um, sigma_arcsec)
+    residuals = np.asarray(data.strokes) - snap.readings
     bad = np.flatnonzero(~np.all(np.isfinite(residuals), axis=1)).tolist()
     dups = duplicate_rows(poses)
     if dups:
@@ -165,7 +166,7 @@ def assess_calibration(
         return CalibrationAssessment("nonfinite", 0, n, float("inf"), np.zeros(n, bool), nan, dups, bad,
                                      float("nan"), 6 * m - n, float("nan"), float("nan"), warnings,
                                      np.full((n, n), np.nan))
-    rep = identifiability_report(calibrated, poses, sigma_um, sigma_arcsec, rtol=RANK_RTOL)
+    rep = report_from_arrays(snap.noise, snap.jacobian, rtol=RANK_RTOL)
     basis = np.asarray(rep.unidentifiable)  # (n − rank, n), the null space
     blind = np.sum(basis**2, axis=0) if basis.size else np.zeros(n)
     identifiable = blind <= IDENTIFIABLE_TOL
@@ -181,15 +182,15 @@ def assess_calibration(
             "(stewart_jax.calibration.plan_poses_optimal chooses them)")
     held, n_det = False, None
     if rep.rank == n:
-        det, jac, noise = _determination(calibrated, poses, sigma_um, sigma_arcsec)
+        det, jac, noise = _determination(snap, calibrated.param_units)
         if nominal is not None:  # the directions hold_undetermined held
-            det = _determination(nominal, poses, sigma_um, sigma_arcsec)[0]
+            det = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)[0]
         n_det = det.n_determined
         if det.n_determined < n:
             held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
             identifiable, std, cov, text = _held_report(det, jac, noise, names, calibrated.param_units, held)
             warnings.append(text)
-    chi2, whitened = _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rep.rank)
+    chi2, whitened = _gls_chi2(snap, residuals, rep.rank)
     dof = 6 * m - rep.rank
     gross = float(np.sqrt(whitened / (6 * m)))
     rms_reading = report_factor(calibrated.reading_unit) * float(np.sqrt(np.mean(residuals**2)))
@@ -222,15 +223,15 @@ def assess_calibration(
                                  chi2, dof, p, ratio, warnings, cov, n_det)
 
 
-def _determination(calibrated, poses, sigma_um, sigma_arcsec):
-    """The determined directions of the pose model, its stroke Jacobian ``(m, 6, n)`` and the
-    stroke noise covariance ``(m, 6, 6)`` (whitening by the pose noise through ``J_P``)."""
-    m, n = len(poses), calibrated.n_params
-    noise, jac = noise_and_jacobian(calibrated, poses, sigma_um, sigma_arcsec)
-    noise = noise + np.eye(6) * 1e-12 * np.trace(noise, axis1=1, axis2=2)[:, None, None] / 6
-    jac = jac.reshape(m, 6, n)
+def _determination(snap: KinematicSnapshot, param_units: tuple[str, ...]):
+    """The determined directions of the pose model at a mechanism's :class:`KinematicSnapshot`,
+    its stroke Jacobian ``(m, 6, n)`` and the stroke noise covariance ``(m, 6, 6)`` (whitening by
+    the pose noise through ``J_P``)."""
+    m, n = len(snap.reachable), len(param_units)
+    noise = snap.noise + np.eye(6) * 1e-12 * np.trace(snap.noise, axis1=1, axis2=2)[:, None, None] / 6
+    jac = snap.jacobian.reshape(m, 6, n)
     jw = np.linalg.solve(np.linalg.cholesky(noise), jac).reshape(6 * m, n)
-    return within_prior(determine(jw, prior_scale(calibrated.param_units)), jac, noise), jac, noise
+    return within_prior(determine(jw, prior_scale(param_units)), jac, noise), jac, noise
 
 
 HELD_TOL = 1e-3
@@ -270,7 +271,7 @@ def hold_undetermined(
     (``_determined.py``): the least-squares fit of the stroke residual over the determined
     directions, from the projection of ``params``. The determination is made at ``nominal``."""
     poses = np.asarray(data.poses)
-    det, _, _ = _determination(nominal, poses, sigma_um, sigma_arcsec)
+    det, _, _ = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)
     u0 = np.asarray(nominal.params)
     if det.n_determined == nominal.n_params:
         return np.asarray(params)
@@ -301,11 +302,11 @@ def _implied_pose_errors(mechanism, poses, readings):
     return jnp.linalg.solve(jac, (readings - strokes)[..., None])[..., 0]
 
 
-def _gls_chi2(calibrated, poses, residuals, sigma_um, sigma_arcsec, rank) -> tuple[float, float]:
+def _gls_chi2(snap: KinematicSnapshot, residuals, rank) -> tuple[float, float]:
     """``min_δ |W (r − A δ)|²`` (the whitened residual with every parameter direction removed)
-    and ``|W r|²`` (the whitened residual itself)."""
-    m, n = residuals.shape[0], calibrated.n_params
-    cov, a = noise_and_jacobian(calibrated, poses, sigma_um, sigma_arcsec)
+    and ``|W r|²`` (the whitened residual itself), at the calibrated mechanism's snapshot."""
+    m, n = residuals.shape[0], snap.jacobian.shape[1]
+    cov, a = snap.noise, snap.jacobian
     # a tiny ridge keeps a pose whose covariance is singular (one sigma zero) whitenable
     cov = cov + np.eye(6) * 1e-12 * np.trace(cov, axis1=1, axis2=2)[:, None, None] / 6
     chol = np.linalg.cholesky(cov)

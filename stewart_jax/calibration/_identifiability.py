@@ -131,7 +131,12 @@ def identifiability_report(
     The observability indices use the ``n`` (36 for the 6-PSS) scaled singular values: O1 =
     (Π σ_i)^(1/n)/√(6m), O2 = σ_min/σ_max, O3 = σ_min, O4 = σ_min²/σ_max.
     """
-    C, J = noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec)
+    return report_from_arrays(*noise_and_jacobian(geometry, poses, sigma_um, sigma_arcsec), rtol)
+
+
+def report_from_arrays(C: np.ndarray, J: np.ndarray, rtol: float = 1e-9) -> IdentifiabilityReport:
+    """:func:`identifiability_report` from the stroke noise covariance ``C`` ``(m, 6, 6)`` and the
+    identification Jacobian ``J`` ``(6m, n)`` already at hand (a :class:`KinematicSnapshot`'s)."""
     norms = np.linalg.norm(J, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     s = np.linalg.svd(J / norms, compute_uv=False)
