@@ -16,7 +16,7 @@ import pytest
 import stewart_jax as sj
 from stewart_jax.calibration import validation_poses
 from stewart_jax.discrepancy import get_effect, model_for
-from stewart_jax.mechanism import PSSMechanism, inverse_kinematics_soa, load_mechanism, save_mechanism
+from stewart_jax.mechanism import PSSMechanism, inverse_kinematics_soa, load_mechanism, preset, save_mechanism
 
 DEG = np.pi / 180
 HALF = np.array([1.0, 1.0, 1.0, DEG, DEG, DEG])  # the paper's travel, ±1 mm and ±1°
@@ -216,7 +216,22 @@ def test_command_line_param_set_names_the_family_it_needs(tmp_path, capsys):
     rows = np.random.default_rng(0).uniform(-1, 1, (8, 12))
     csv.write_text("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
     assert main(["calibrate", str(csv), "--geometry", "rubin_m2", "--param-set", "54"]) == 2
-    assert "6-PSS parameter sets" in capsys.readouterr().err
+    assert "6-UPS, which has one fixed parameter set (42 parameters)" in capsys.readouterr().err
+    assert main(["calibrate", str(csv), "--geometry", "nominal", "--param-set", "48"]) == 2
+    assert "6-PSS, which has the parameter sets 36, 42, 54" in capsys.readouterr().err
+
+
+def test_param_set_is_declared_by_every_family():
+    """``param_sets``/``with_param_set`` are the mechanism contract: a fixed family refuses any set,
+    a family with sets refuses one it lacks and switches to one it has."""
+    ups, rus, pss = preset("rubin_m2"), preset("rotary_stewart"), preset("nominal")
+    assert ups.param_sets == ()
+    with pytest.raises(ValueError, match="one fixed parameter set"):
+        ups.with_param_set("42")
+    assert rus.with_param_set("48").n_params == 48 and rus.param_sets == ("54", "48")
+    with pytest.raises(ValueError, match="6-RUS param_set must be one of"):
+        rus.with_param_set("36")
+    assert pss.with_param_set("54").n_params == 54
 
 
 @pytest.mark.parametrize("param_set", ["42", "54"])

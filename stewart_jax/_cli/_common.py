@@ -106,9 +106,10 @@ def load_nominal(args: argparse.Namespace):
     param_set = getattr(args, "param_set", None)
     if param_set is None:
         return nominal
-    if not hasattr(nominal, "with_param_set"):
-        raise ValueError(f"--param-set chooses among the 6-PSS parameter sets (and the 6-RUS ones); "
-                         f"{args.geometry!r} is a {nominal.family}, whose parameters are fixed ({nominal.n_params})")
+    if param_set not in nominal.param_sets:
+        sets = (f"the parameter sets {', '.join(nominal.param_sets)}" if nominal.param_sets
+                else f"one fixed parameter set ({nominal.n_params} parameters)")
+        raise ValueError(f"--param-set {param_set}: {args.geometry!r} is a {nominal.family}, which has {sets}")
     return nominal.with_param_set(param_set)
 
 

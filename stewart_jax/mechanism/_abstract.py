@@ -107,6 +107,8 @@ class AbstractMechanism(eqx.Module):
     (a crank angle). Reports give them in µm or µrad."""
     v0: eqx.AbstractVar[Float[Array, "3"]]
     """Position of A's origin (the point whose pose is commanded) in B at the zero pose (mm)."""
+    param_sets: ClassVar[tuple[str, ...]] = ()
+    """The family's parameter sets, the choices of :meth:`with_param_set` (empty: one fixed set)."""
 
     @property
     @abc.abstractmethod
@@ -143,6 +145,12 @@ class AbstractMechanism(eqx.Module):
     @abc.abstractmethod
     def from_dict(cls, d: dict[str, Any]) -> AbstractMechanism:
         """Inverse of :meth:`to_dict`, validating every field with a message naming it."""
+
+    def with_param_set(self, param_set: str) -> AbstractMechanism:
+        """The same mechanism calibrated with the parameter set ``param_set``, one of
+        :attr:`param_sets`; a family with one fixed set refuses it with a ``ValueError``."""
+        raise ValueError(f"the {self.family} has one fixed parameter set ({self.n_params} parameters), "
+                         f"not {param_set!r}")
 
     @property
     def param_names(self) -> tuple[str, ...]:

@@ -77,6 +77,7 @@ class PSSMechanism(AbstractMechanism):
 
     family: ClassVar[str] = "6-PSS"
     reading_unit: ClassVar[str] = "mm"
+    param_sets: ClassVar[tuple[str, ...]] = PARAM_SETS
 
     upper: Float[Array, "6 3"]
     lower: Float[Array, "6 3"]

@@ -94,6 +94,7 @@ class RUSMechanism(AbstractMechanism):
 
     family: ClassVar[str] = "6-RUS"
     reading_unit: ClassVar[str] = "rad"
+    param_sets: ClassVar[tuple[str, ...]] = PARAM_SETS
 
     base: Float[Array, "6 3"]
     platform: Float[Array, "6 3"]
@@ -159,6 +160,8 @@ class RUSMechanism(AbstractMechanism):
 
     def with_param_set(self, param_set: str) -> RUSMechanism:
         """The same mechanism calibrated with the crank zeros (``"54"``) or without (``"48"``)."""
+        if param_set not in PARAM_SETS:
+            raise ValueError(f"6-RUS param_set must be one of {PARAM_SETS}, got {param_set!r}")
         return RUSMechanism(self.base, self.platform, self.v0, self.crank_lengths, self.rod_lengths, self.azimuth,
                             self.crank_zero, crank_limits=self.crank_limits, travel=self.travel,
                             param_set=param_set)
