@@ -82,6 +82,47 @@ def test_many_concurrent_saves_lose_nothing(tmp_path):
     assert len(saved["seconds"]["lm"]) == 50
 
 
+def _numbers(path):
+    rows = json.loads(path.read_text())["rows"]
+    keys = ("calibration", "validation", "cost_median", "cost_p90", "status_counts", "n_evaluations_median")
+    return {name: {k: row[k] for k in keys} for name, row in rows.items()}
+
+
+@pytest.mark.slow  # a study killed, resumed and run again uninterrupted: ~60 s
+def test_a_study_killed_with_sigkill_loses_at_most_the_chunk_in_flight(tmp_path, capsys):
+    """Class: ``kill -9`` (no handler runs) at a moment between and during chunk writes. The
+    checkpoint is a whole JSON file with every finished trial, and the resumed run's numbers are
+    the uninterrupted run's."""
+    import signal
+    import time
+
+    ck = tmp_path / "ck.json"
+    argv = [*STUDY, "--trials", "6", "--chunk", "1"]
+    proc = _cli(*argv, "--checkpoint", str(ck))
+    kept: dict = {}
+    deadline = time.monotonic() + 600
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            kept = json.loads(ck.read_text())["trials"].get("cs", {})
+        except (OSError, ValueError):  # not written yet; a half-written file would fail below
+            pass
+        if len(kept) >= 2:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the study finished before it could be killed: " + proc.stderr.read()[-2000:]
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    saved = json.loads(ck.read_text())  # whole, never a torn write
+    n_kept = len(saved["trials"]["cs"])
+    assert 2 <= n_kept < 6, n_kept
+    resumed, whole = tmp_path / "resumed.json", tmp_path / "whole.json"
+    assert main([*argv, "--checkpoint", str(ck), "--json", str(resumed)]) == 0
+    err = capsys.readouterr().err
+    assert f"kept {n_kept}/6 trials of cs" in err, err
+    assert main([*argv, "--json", str(whole)]) == 0
+    assert _numbers(resumed) == _numbers(whole)
+
+
 @pytest.mark.parametrize("second", ["--json", "--plot"])
 def test_checkpoint_and_another_output_at_one_path_are_refused_before_work(shared, capsys, second):
     """Class: two outputs at one path (the result would replace the checkpoint)."""
