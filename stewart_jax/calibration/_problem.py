@@ -49,6 +49,9 @@ class CalibrationData(NamedTuple):
     temperature: Float[Array, " m"] | None = None
     time: Float[Array, " m"] | None = None
 
+    time_unit = ("h", 3600.0)
+    """The discrepancy search's ``time`` factor: hours (a session lasts hours)."""
+
     @property
     def n_poses(self) -> int:
         return self.strokes.shape[-2]

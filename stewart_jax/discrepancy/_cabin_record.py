@@ -131,6 +131,11 @@ class CabinRecordData(NamedTuple):
     noise). The coordinates enter through the ``reading`` factor, the model's *predicted*
     coordinate."""
 
+    directions = None
+    temperature = None
+    poses = None
+    """A record carries no approach directions, temperatures or pose factors (the NOTE above)."""
+
     def take(self, index) -> CabinRecordData:
         index = np.asarray(index)
         return CabinRecordData(self.time[index], self.pose[index])

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 import jax.numpy as jnp
 import numpy as np
@@ -60,7 +60,6 @@ from ._statistics import bic, heldout_chi2, heldout_p, nested_p
 from ._subspace import SINE_TOL, basis
 
 T_REF_C = 20.0
-HOUR_S = 3600.0
 READING_FACTOR_UNITS = {"mm": (1.0, "mm"), "rad": (180 / math.pi, "deg")}
 """Per mechanism ``reading_unit``: the scale from the library's reading to the ``reading``
 factor's unit, and that unit (a crank angle in degrees, as the measurement CSV and the pose
@@ -73,6 +72,36 @@ MIN_PERIODS_IN_RANGE = 1.5
 """The longest period tried: the readings' range / this."""
 NYQUIST_SAMPLES = 2.0
 """The shortest period tried: this many times the readings' median spacing (Nyquist)."""
+
+
+
+class SearchData(Protocol):
+    """The data contract of a model that declares ``open_search``: the factors its rows offer the
+    search, each ``None`` where the data do not carry it (a class attribute ``None`` where the
+    data type never does, e.g. a cabin record's directions).
+
+    - ``time``: ``Float[Array, "m"] | None``, s since the start;
+    - ``time_unit``: ``(unit, seconds per unit)`` of the ``time`` factor (``("h", 3600.0)`` for
+      a measurement session, ``("s", 1.0)`` for a record);
+    - ``directions``: ``Float[Array, "m k"] | None``, the approach direction (±1) per actuator;
+    - ``temperature``: ``Float[Array, "m"] | None``, °C;
+    - ``poses``: ``Float[Array, "m 6"] | None``, the measured poses (mm, rad).
+    """
+
+    time_unit: tuple[str, float]
+
+    @property
+    def time(self) -> Any: ...
+
+    @property
+    def directions(self) -> Any: ...
+
+    @property
+    def temperature(self) -> Any: ...
+
+    @property
+    def poses(self) -> Any: ...
+
 
 _POSE = (("x", 0, 1.0, "mm"), ("y", 1, 1.0, "mm"), ("z", 2, 1.0, "mm"),
          ("rx", 3, 180 / math.pi, "deg"), ("ry", 4, 180 / math.pi, "deg"), ("rz", 5, 180 / math.pi, "deg"))
@@ -101,10 +130,10 @@ def reading_factor(model: AbstractDiscrepancyModel) -> tuple[float, str]:
     return READING_FACTOR_UNITS[unit]
 
 
-def time_unit(data: Any) -> tuple[str, float]:
-    """``(unit, seconds per unit)`` of the ``time`` factor: hours for a measurement session,
-    the data's own ``time_unit`` where it declares one (seconds for a cabin record)."""
-    return getattr(data, "time_unit", ("h", HOUR_S))
+def time_unit(data: SearchData) -> tuple[str, float]:
+    """``(unit, seconds per unit)`` of the ``time`` factor (hours for a measurement session,
+    seconds for a cabin record)."""
+    return data.time_unit
 
 
 def _factor_x(spec: TermSpec, reading, data, xp=np):
@@ -300,12 +329,13 @@ def _periods(x: np.ndarray) -> np.ndarray:
     return p_min * PERIOD_RATIO ** np.arange(int(math.log(p_max / p_min) / math.log(PERIOD_RATIO)) + 1)
 
 
-def _library(reading_tr: np.ndarray, data, k: int, periodic: Sequence[str] = ("reading",)) -> list[list[TermSpec]]:
+def _library(reading_tr: np.ndarray, data: SearchData, k: int,
+             periodic: Sequence[str] = ("reading",)) -> list[list[TermSpec]]:
     """The candidate groups, as families (a family of periodic groups shares one period grid);
     Fourier pairs in the factors ``periodic`` (the model's ``open_search_periodic``)."""
     fams: list[list[TermSpec]] = []
     legs: list[int | None] = [None, *range(k)]
-    time = getattr(data, "time", None)
+    time = data.time
     for factor in periodic:
         if factor == "time" and time is None:
             continue
@@ -315,15 +345,15 @@ def _library(reading_tr: np.ndarray, data, k: int, periodic: Sequence[str] = ("r
     if float(np.median(np.ptp(reading_tr, axis=0))) > 0:
         for d in (1, 2, 3):
             fams.append([TermSpec("reading", "polynomial", None, d, "", leg) for leg in legs])
-    if getattr(data, "directions", None) is not None:
+    if data.directions is not None:
         fams.append([TermSpec("dir", "step", None, None, "", leg) for leg in legs])
-    if getattr(data, "temperature", None) is not None:
+    if data.temperature is not None:
         fams.append([TermSpec("temperature", "polynomial", None, 1, "", leg) for leg in legs])
         fams.append([TermSpec("reading", "polynomial", None, 1, "temperature", leg) for leg in legs])
     if time is not None:
         for d in (1, 2):
             fams.append([TermSpec("time", "polynomial", None, d, "", leg) for leg in legs])
-    if getattr(data, "poses", None) is not None:
+    if data.poses is not None:
         for name, *_ in _POSE:
             fams.append([TermSpec(name, "polynomial", None, 2, "", leg) for leg in legs])
     return fams

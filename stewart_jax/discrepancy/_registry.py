@@ -204,7 +204,8 @@ class AbstractDiscrepancyModel(eqx.Module):
     """Gauss–Newton steps of the augmented fits (``None``: the workflow's default)."""
     open_search: ClassVar[bool] = False
     """Whether the open term search runs on this model (its state then has an additive
-    ``offset`` of the outputs; see ``_discovery.py`` for the factors a model may declare)."""
+    ``offset`` of the outputs, and its data follow ``_discovery.SearchData``: ``time``,
+    ``time_unit``, ``directions``, ``temperature``, ``poses``, each ``None`` where absent)."""
     batched_fits: ClassVar[bool] = True
     """Whether many data sets may be fitted in one batch. ``False`` for a model whose fits hold
     LAPACK calls that, batched, deadlock jaxlib 0.10's CPU thread pool (see
