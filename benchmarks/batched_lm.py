@@ -81,8 +81,8 @@ class NumpyPSS:
     ``∂q/∂Bc = ((e_x + Δx)/h, (e_y + Δy)/h, e_z/h − 1)``; the residual's Jacobian is minus that.
     """
 
-    def __init__(self, strokes, poses, v0):
-        self.q = np.asarray(strokes)
+    def __init__(self, readings, poses, v0):
+        self.q = np.asarray(readings)
         self.poses = np.asarray(poses)
         self.v0 = np.asarray(v0)
         self.rot = _rotation(self.poses)  # (m, 3, 3)
@@ -115,7 +115,7 @@ class NumpyPSS:
 
 def scipy_peer(problem):
     """One calibration by MINPACK's LM on the NumPy residual and Jacobian → (u, S, evaluations)."""
-    p = NumpyPSS(problem.data.strokes, problem.data.poses, problem.mechanism.v0)
+    p = NumpyPSS(problem.data.readings, problem.data.poses, problem.mechanism.v0)
     r = scipy_least_squares(p.residual, np.asarray(problem.initial), jac=p.jacobian, method="lm",
                             xtol=1e-15, ftol=1e-15, gtol=1e-15)
     return r.x, 2.0 * r.cost, r.nfev
@@ -222,7 +222,7 @@ def conditioning() -> dict:
     """Cholesky vs QR on the rank-deficient 8-pose normal equations (dense, 36 parameters)."""
     problems, *_ = simulate_trials(trial_keys(0, 1), sj.nominal_geometry(), sj.actual_geometry(), "paper8")
     p = jax.tree.map(lambda x: np.asarray(x[0]), problems)
-    peer = NumpyPSS(p.data.strokes, p.data.poses, p.mechanism.v0)
+    peer = NumpyPSS(p.data.readings, p.data.poses, p.mechanism.v0)
     u = np.asarray(p.initial)
     r, j = peer.residual(u), peer.jacobian(u)
     sv = np.linalg.svd(j, compute_uv=False)

@@ -101,12 +101,12 @@ def run_seed(noise: float, s: int):
         rng = np.random.default_rng([s, c, 38])  # the same truth and noise draws at every level
         ses = session("6-UPS", geo, eff, rng, half=half, n=180, sigma_um=0.1 * noise, sigma_arcsec=0.1 * noise,
                       temp_noise_K=TEMP_NOISE_K, blend=f)
-        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        data = make_calibration_data(ses.readings, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(180, 0.3, s)
         trains.append(data.take(tr))
         tests.append(data.take(te))
         meta.append((eff, f))
-    effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
+    effects, _ = select_effects(model, trains[0], len(trains[0].readings))
     reps = diagnose_many(model, effects, trains, tests, temperature_std_k=TEMP_NOISE_K)  # the stated σ
     return [{"noise": noise, "seed": s, "true": eff or "none", "size": f, "outcome": outcome(eff, f, r),
              "named": r.named_effect, "indistinguishable_from": r.indistinguishable_from,

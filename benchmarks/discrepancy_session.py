@@ -114,12 +114,12 @@ def run_seed(family: str, noise: float, s: int, alpha: float, n_poses: int):
         rng = np.random.default_rng([s, c, int(noise * 10), len(family)])
         ses = session(family, geo, eff, rng, half=half, n=n_poses, sigma_um=0.1 * noise,
                       sigma_arcsec=0.1 * noise)
-        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        data = make_calibration_data(ses.readings, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(n_poses, 0.3, s)
         trains.append(data.take(tr))
         tests.append(data.take(te))
         meta.append((s, eff, ses.truth))
-    effects, _ = select_effects(model, trains[0], len(trains[0].strokes))
+    effects, _ = select_effects(model, trains[0], len(trains[0].readings))
     reps = diagnose_many(model, effects, trains, tests, alpha=alpha)  # one batch per seed: one compile
     u = "um" if model.report_unit == "µm" else "urad"  # the gaps' unit: µm for struts, µrad for cranks
     rows = []

@@ -40,7 +40,7 @@ def ik_throughput(name: str, n: int = 65_536, repeats: int = 5) -> dict:
     m = preset(name)
     half = reachable_travel(m)
     poses = sj.calibration.random_poses(jax.random.key(0), n, half=half)
-    f = jax.jit(lambda mm, p: mm.solve_inverse_kinematics(p).strokes)
+    f = jax.jit(lambda mm, p: mm.solve_inverse_kinematics(p).readings)
     t0 = time.perf_counter()
     jax.block_until_ready(f(m, poses))
     compile_s = time.perf_counter() - t0

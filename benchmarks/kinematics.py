@@ -104,7 +104,7 @@ def numpy_rotation(angles):
 
 
 def numpy_ik(upper, lower, v0, poses):
-    """Eq. 4, cancellation-free form, for poses (N, 6) → (strokes (N, 6), margin (N, 6))."""
+    """Eq. 4, cancellation-free form, for poses (N, 6) → (readings (N, 6), margin (N, 6))."""
     rot = numpy_rotation(poses[:, 3:])
     w = rot @ upper.T  # (N, 3, 6): T·Ac_i
     delta = w - upper.T + poses[:, :3, None]  # (N, 3, 6)
@@ -115,12 +115,12 @@ def numpy_ik(upper, lower, v0, poses):
     lz = e[2] + delta[:, 2]
     denom = lz + root
     ok = denom > 0
-    strokes = np.where(ok, growth.sum(axis=1) / np.where(ok, denom, 1.0), lz - root)
-    return strokes, margin
+    readings = np.where(ok, growth.sum(axis=1) / np.where(ok, denom, 1.0), lz - root)
+    return readings, margin
 
 
 def numpy_ik_jacobian(upper, lower, v0, poses):
-    """Strokes (N, 6) and the analytic Jacobian ∂q/∂P (N, 6, 6) (see stewart_jax/mechanism/_batched.py)."""
+    """Readings (N, 6) and the analytic Jacobian ∂q/∂P (N, 6, 6) (see stewart_jax/mechanism/_batched.py)."""
     rot = numpy_rotation(poses[:, 3:])
     w = rot @ upper.T  # (N, 3, 6)
     delta = w - upper.T + poses[:, :3, None]
@@ -129,7 +129,7 @@ def numpy_ik_jacobian(upper, lower, v0, poses):
     margin = e[2] ** 2 - growth[:, 0] - growth[:, 1]
     h = np.sqrt(np.maximum(margin, 0.0))
     ell = e + delta
-    strokes = growth.sum(axis=1) / (ell[:, 2] + h)
+    readings = growth.sum(axis=1) / (ell[:, 2] + h)
     ax, ay = ell[:, 0] / h, ell[:, 1] / h  # (N, 6)
     dphi = -upper[:, 2] * rot[:, :, 1, None] + upper[:, 1] * rot[:, :, 2, None]  # (N, 3, 6)
     cp, sp = np.cos(poses[:, 5])[:, None], np.sin(poses[:, 5])[:, None]
@@ -139,17 +139,17 @@ def numpy_ik_jacobian(upper, lower, v0, poses):
     for k, d in ((3, dphi), (4, dth)):
         jac[:, :, k] = d[:, 2] + ax * d[:, 0] + ay * d[:, 1]
     jac[:, :, 5] = -ax * w[:, 1] + ay * w[:, 0]
-    return strokes, margin, jac
+    return readings, margin, jac
 
 
-def numpy_fk(upper, lower, v0, strokes, steps=4):
+def numpy_fk(upper, lower, v0, readings, steps=4):
     """Fixed-step Newton, batched ``np.linalg.solve``; returns poses and max residual."""
-    p = np.zeros_like(strokes)
+    p = np.zeros_like(readings)
     for _ in range(steps):
         q, _, jac = numpy_ik_jacobian(upper, lower, v0, p)
-        p = p - np.linalg.solve(jac, (q - strokes)[..., None])[..., 0]
+        p = p - np.linalg.solve(jac, (q - readings)[..., None])[..., 0]
     q, margin = numpy_ik(upper, lower, v0, p)
-    return p, np.max(np.abs(q - strokes), axis=1)
+    return p, np.max(np.abs(q - readings), axis=1)
 
 
 # --------------------------------------------------------------------------------------------
@@ -249,14 +249,14 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
     pub = jax.jit(lambda g, p: g.solve_inverse_kinematics(p))(geometry, poses_j)
     fast = jax.jit(kb.inverse_kinematics_soa)(geometry, poses_soa)
     checks = {
-        "numpy_vs_public_mm": float(np.max(np.abs(q_np - np.asarray(pub.strokes)))),
-        "fast_vs_public_mm": float(np.max(np.abs(np.asarray(fast.strokes).T - np.asarray(pub.strokes)))),
-        "fast_vs_numpy_mm": float(np.max(np.abs(np.asarray(fast.strokes).T - q_np))),
+        "numpy_vs_public_mm": float(np.max(np.abs(q_np - np.asarray(pub.readings)))),
+        "fast_vs_public_mm": float(np.max(np.abs(np.asarray(fast.readings).T - np.asarray(pub.readings)))),
+        "fast_vs_numpy_mm": float(np.max(np.abs(np.asarray(fast.readings).T - q_np))),
     }
     if mesh is not None:
         shd = jax.jit(kb.inverse_kinematics_sharded)(geometry, poses_soa)
         checks["sharded_vs_public_mm"] = float(
-            np.max(np.abs(np.asarray(shd.strokes).T - np.asarray(pub.strokes)))
+            np.max(np.abs(np.asarray(shd.readings).T - np.asarray(pub.readings)))
         )
         assert np.array_equal(np.asarray(shd.reachable), np.asarray(pub.reachable))
     for k, v in checks.items():
@@ -270,10 +270,10 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
 
     # --- public path ---
     f, c = compile_jit(lambda g, p: g.solve_inverse_kinematics(p), (geometry, poses_j))
-    add("jit(solve_inverse_kinematics) (N, 6)", "public path; strokes, margin, reachable", c,
+    add("jit(solve_inverse_kinematics) (N, 6)", "public path; readings, margin, reachable", c,
         measure(f, (geometry, poses_j), repeats))
-    f, c = compile_jit(lambda g, p: g.solve_inverse_kinematics(p).strokes, (geometry, poses_j))
-    add("jit(solve_inverse_kinematics).strokes (N, 6)", "public path, strokes only", c,
+    f, c = compile_jit(lambda g, p: g.solve_inverse_kinematics(p).readings, (geometry, poses_j))
+    add("jit(solve_inverse_kinematics).readings (N, 6)", "public path, readings only", c,
         measure(f, (geometry, poses_j), repeats))
 
     # --- ablations ---
@@ -281,48 +281,48 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
         return jnp.stack(_ik_rows(g, p, _sincos_exact)[0])
 
     f, c = compile_jit(soa_exact, (geometry, poses_soa))
-    add("SoA (6, N) with jnp.sin/cos, strokes", "ablation: layout change only", c,
+    add("SoA (6, N) with jnp.sin/cos, readings", "ablation: layout change only", c,
         measure(f, (geometry, poses_soa), repeats))
-    f, c = compile_jit(lambda g, p: kb.inverse_kinematics_soa(g, p.T).strokes.T, (geometry, poses_j))
-    add("inverse_kinematics_soa(g, poses.T).strokes.T (N, 6)",
+    f, c = compile_jit(lambda g, p: kb.inverse_kinematics_soa(g, p.T).readings.T, (geometry, poses_j))
+    add("inverse_kinematics_soa(g, poses.T).readings.T (N, 6)",
         "ablation: polynomial sin/cos, public layout (transposes fused)", c,
         measure(f, (geometry, poses_j), repeats))
 
     # --- fast path, one device ---
     f, c = compile_jit(kb.inverse_kinematics_soa, (geometry, poses_soa))
-    add("jit(inverse_kinematics_soa) (6, N)", "strokes, margin, reachable", c,
+    add("jit(inverse_kinematics_soa) (6, N)", "readings, margin, reachable", c,
         measure(f, (geometry, poses_soa), repeats))
 
-    def strokes_only(g, p):
-        return kb.inverse_kinematics_soa(g, p).strokes
+    def readings_only(g, p):
+        return kb.inverse_kinematics_soa(g, p).readings
 
-    f, c = compile_jit(strokes_only, (geometry, poses_soa))
-    add("jit(inverse_kinematics_soa).strokes (6, N)", "strokes only", c,
+    f, c = compile_jit(readings_only, (geometry, poses_soa))
+    add("jit(inverse_kinematics_soa).readings (6, N)", "readings only", c,
         measure(f, (geometry, poses_soa), repeats))
 
     # --- split across the host devices ---
-    def sharded_strokes(g, p):
-        return kb.inverse_kinematics_sharded(g, p).strokes
+    def sharded_readings(g, p):
+        return kb.inverse_kinematics_sharded(g, p).readings
 
     if mesh is not None:
         sharded = jax.device_put(poses_soa, NamedSharding(mesh, P(None, "batch")))
         f, c = compile_jit(kb.inverse_kinematics_sharded, (geometry, sharded))
-        add(f"jit(inverse_kinematics_sharded) × {mesh.size} devices", "strokes, margin, reachable",
+        add(f"jit(inverse_kinematics_sharded) × {mesh.size} devices", "readings, margin, reachable",
             c, measure(f, (geometry, sharded), repeats))
-        f, c = compile_jit(sharded_strokes, (geometry, sharded))
-        add(f"jit(inverse_kinematics_sharded).strokes × {mesh.size} devices", "strokes only", c,
+        f, c = compile_jit(sharded_readings, (geometry, sharded))
+        add(f"jit(inverse_kinematics_sharded).readings × {mesh.size} devices", "readings only", c,
             measure(f, (geometry, sharded), repeats))
 
     # --- batch-size sweep of the fastest variants (output-buffer page faults, caches) ---
     for m in sweep:
         p_m = jnp.asarray(np.ascontiguousarray(random_poses(rng, m).T))
-        f, c = compile_jit(strokes_only, (geometry, p_m))
-        add("jit(inverse_kinematics_soa).strokes (6, N)", "size sweep", c,
+        f, c = compile_jit(readings_only, (geometry, p_m))
+        add("jit(inverse_kinematics_soa).readings (6, N)", "size sweep", c,
             measure(f, (geometry, p_m), repeats), n=m)
         if mesh is not None:
             p_m = jax.device_put(p_m, NamedSharding(mesh, P(None, "batch")))
-            f, c = compile_jit(sharded_strokes, (geometry, p_m))
-            add(f"jit(inverse_kinematics_sharded).strokes × {mesh.size} devices", "size sweep", c,
+            f, c = compile_jit(sharded_readings, (geometry, p_m))
+            add(f"jit(inverse_kinematics_sharded).readings × {mesh.size} devices", "size sweep", c,
                 measure(f, (geometry, p_m), repeats), n=m)
     return rows, checks
 
@@ -330,8 +330,8 @@ def ik_rows(geometry, n, repeats, rng, mesh, sweep):
 def fk_rows(geometry, n, repeats, rng):
     upper, lower, v0 = (np.asarray(a) for a in (geometry.upper, geometry.lower, geometry.v0))
     poses = random_poses(rng, n)
-    strokes = np.asarray(geometry.solve_inverse_kinematics(poses).strokes)
-    strokes_j = jnp.asarray(strokes)
+    readings = np.asarray(geometry.solve_inverse_kinematics(poses).readings)
+    readings_j = jnp.asarray(readings)
     rows = []
 
     def add(method, note, compile_s, stats):
@@ -341,9 +341,9 @@ def fk_rows(geometry, n, repeats, rng):
              "unit": "poses/s", **stats}
         )  # fmt: skip
 
-    p_np, res_np = numpy_fk(upper, lower, v0, strokes)
-    pub = sj.forward_kinematics(geometry, strokes_j)
-    new = kb.forward_kinematics_newton(geometry, strokes_j)
+    p_np, res_np = numpy_fk(upper, lower, v0, readings)
+    pub = sj.forward_kinematics(geometry, readings_j)
+    new = kb.forward_kinematics_newton(geometry, readings_j)
     checks = {
         "numpy_fk_pose_err": float(np.max(np.abs(p_np - poses))),
         "public_fk_pose_err": float(np.max(np.abs(np.asarray(pub.poses) - poses))),
@@ -358,14 +358,14 @@ def fk_rows(geometry, n, repeats, rng):
     assert checks["public_converged"] == 1.0 and checks["newton_converged"] == 1.0
 
     add("NumPy Newton ×4, np.linalg.solve", "analytic Jacobian, batched LAPACK", 0.0,
-        measure(lambda: numpy_fk(upper, lower, v0, strokes), (), repeats))
+        measure(lambda: numpy_fk(upper, lower, v0, readings), (), repeats))
 
     # public: compile time = first call minus a steady-state call
     jax.clear_caches()
     t = time.perf_counter()
-    _block(sj.forward_kinematics(geometry, strokes_j))
+    _block(sj.forward_kinematics(geometry, readings_j))
     first = time.perf_counter() - t
-    stats = measure(lambda: sj.forward_kinematics(geometry, strokes_j), (), repeats)
+    stats = measure(lambda: sj.forward_kinematics(geometry, readings_j), (), repeats)
     add("forward_kinematics (public)", "while_loop, jacfwd, line search; input checks", 
         max(0.0, first - stats["run_median_s"]), stats)
 
@@ -376,13 +376,13 @@ def fk_rows(geometry, n, repeats, rng):
         jax.clear_caches()
         t = time.perf_counter()
         compiled = jax.jit(fn, static_argnums=(3, 4, 5)).lower(
-            geometry, strokes_j, jnp.zeros(6), steps, 1e-11, chunk).compile()
+            geometry, readings_j, jnp.zeros(6), steps, 1e-11, chunk).compile()
         c = time.perf_counter() - t
-        out = compiled(geometry, strokes_j, jnp.zeros(6))
+        out = compiled(geometry, readings_j, jnp.zeros(6))
         assert bool(np.all(np.asarray(out.converged))), (steps, chunk)
         add(f"forward_kinematics_newton steps={steps} chunk={chunk}",
             "fixed Newton, analytic J, J0-preconditioned elimination, lax.map chunks", c,
-            measure(compiled, (geometry, strokes_j, jnp.zeros(6)), repeats))
+            measure(compiled, (geometry, readings_j, jnp.zeros(6)), repeats))
     return rows, checks
 
 

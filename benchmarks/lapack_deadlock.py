@@ -85,7 +85,7 @@ model = dc.model_for(mech)
 trains, tests = [], []
 for c, eff in enumerate([None, *REGISTERED[family], *UNREGISTERED]):
     ses = session(family, geo, eff, np.random.default_rng([seed, c, 77]), half=half, n=180)
-    data = sj.calibration.make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+    data = sj.calibration.make_calibration_data(ses.readings, ses.poses, ses.directions, ses.temperature, ses.time)
     tr, te = dc.split_rows(180, 0.3, seed)
     trains.append(data.take(tr))
     tests.append(data.take(te))

@@ -140,7 +140,7 @@ def check_session(mechanism, seen: dict, poses_lib: np.ndarray) -> dict:
         "moves": [],
     }
     for pose, move in zip(poses_lib, seen.get("moves", [])[: len(poses_lib)], strict=False):
-        ik = lengths0 + np.asarray(mechanism.solve_inverse_kinematics(pose).strokes)
+        ik = lengths0 + np.asarray(mechanism.solve_inverse_kinematics(pose).readings)
         commanded = np.concatenate([pose[:3] + v0, np.degrees(pose[3:])])
         reached = np.asarray(move["position"][:6])
         out["moves"].append({

@@ -39,8 +39,8 @@ from stewart_jax.optimise._levy import mantegna_sigma  # noqa: E402
 from stewart_jax.study import simulate_trials, trial_keys  # noqa: E402
 
 
-def numpy_strokes(U, upper_idx, poses, v0):
-    """IK (eq. 4) for a population ``U`` (n, 36) at poses (m, 6) → strokes (n, m, 6)."""
+def numpy_readings(U, upper_idx, poses, v0):
+    """IK (eq. 4) for a population ``U`` (n, 36) at poses (m, 6) → readings (n, m, 6)."""
     upper = U[:, :18].reshape(-1, 1, 6, 3)
     lower = U[:, 18:].reshape(-1, 1, 6, 3)
     phi, th, ps = poses[:, 3], poses[:, 4], poses[:, 5]
@@ -61,7 +61,7 @@ def numpy_strokes(U, upper_idx, poses, v0):
 
 
 def numpy_cost(U, q, poses, v0):
-    s = np.sum((q[None] - numpy_strokes(U, None, poses, v0)) ** 2, axis=(1, 2))
+    s = np.sum((q[None] - numpy_readings(U, None, poses, v0)) ** 2, axis=(1, 2))
     return np.where(np.isfinite(s), s, np.inf)
 
 
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
     keys = trial_keys(0, max(n_lm, n_batch))
     problems, *_ = simulate_trials(keys, nominal, actual, "paper8")
     one = jax.tree.map(lambda x: x[0], problems)
-    q, poses, v0 = (np.asarray(x) for x in (one.data.strokes, one.data.poses, one.mechanism.v0))
+    q, poses, v0 = (np.asarray(x) for x in (one.data.readings, one.data.poses, one.mechanism.v0))
     lo, hi = np.asarray(one.lower), np.asarray(one.upper)
     rows = []
 
@@ -186,7 +186,7 @@ def main(argv=None) -> int:
 
     def resid(u, k):
         d = jax.tree.map(lambda x: np.asarray(x[k]), problems.data)
-        return (d.strokes - numpy_strokes(u[None], None, d.poses, v0)[0]).reshape(-1)
+        return (d.readings - numpy_readings(u[None], None, d.poses, v0)[0]).reshape(-1)
 
     jres = jax.jit(lambda p, u: p.residuals(u))
     jjac = jax.jit(lambda p, u: jax.jacfwd(p.residuals)(u))

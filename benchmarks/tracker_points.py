@@ -125,7 +125,7 @@ class ScipyPointModel:
     def __init__(self, data, targets, nominal, range_um, across_um_per_m):
         from stewart_jax.calibration._points import tracker_whitening
 
-        self.q = np.asarray(data.strokes)
+        self.q = np.asarray(data.readings)
         self.j = np.asarray(data.pose_index)
         self.a = targets.platform[data.target_index]
         self.pts = np.asarray(data.points)
@@ -295,7 +295,7 @@ def main() -> None:
         t0 = time.perf_counter()
         rot0, tr0, _, _ = start_values(sim.data, targets, nominal)
         poses, fitted = rigid_poses(sim.data, targets, rot0, tr0, np.asarray(nominal.v0))
-        data = make_calibration_data(sim.data.strokes[fitted], poses[fitted])
+        data = make_calibration_data(sim.data.readings[fitted], poses[fitted])
         res = calibrate(calibration_problem(data, nominal), "lm-batched", jax.random.key(trial))
         params = jax.block_until_ready(res.params)
         row["two_step_seconds"] = time.perf_counter() - t0

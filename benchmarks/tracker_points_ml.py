@@ -112,7 +112,7 @@ class JointFit:
     """``y = [u (42), registration (6), poses (6m)]``; the residual and its sparsity pattern."""
 
     def __init__(self, data, targets, nominal, range_um, across_um_per_m, prior):
-        self.q, self.j = np.asarray(data.strokes), np.asarray(data.pose_index)
+        self.q, self.j = np.asarray(data.readings), np.asarray(data.pose_index)
         self.a = targets.platform[data.target_index]
         self.pts, self.refs = np.asarray(data.points), np.asarray(data.references)
         self.b = targets.base[data.reference_index]

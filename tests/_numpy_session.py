@@ -100,12 +100,12 @@ def angles(r):
 
 @dataclasses.dataclass(frozen=True)
 class Session:
-    """Measured columns (``strokes`` = readings, mm, or rad for cranks; ``poses`` measured, mm
+    """Measured columns (``readings``: mm, or rad for cranks; ``poses`` measured, mm
     and rad; ``directions`` ±1; ``temperature`` °C; ``time`` s) and the truth (``effect``, its
     parameters ``truth``, ``period_mm`` or ``period_deg`` of a cyclic error, ``leg`` of a
     one-actuator effect)."""
 
-    strokes: np.ndarray
+    readings: np.ndarray
     poses: np.ndarray
     directions: np.ndarray
     temperature: np.ndarray

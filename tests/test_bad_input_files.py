@@ -231,7 +231,7 @@ def test_radians_under_a_degree_header_are_a_gross_misfit_even_with_few_degrees_
     """Class: angles in the wrong unit with 48 readings for 42 parameters: the χ² test has 6
     degrees of freedom and absorbs most of the misfit; the whitened residual does not."""
     m, data = m2_data
-    wrong = sj.calibration.make_calibration_data(data.strokes, data.poses * jnp.array([1.0] * 3 + [np.pi / 180] * 3))
+    wrong = sj.calibration.make_calibration_data(data.readings, data.poses * jnp.array([1.0] * 3 + [np.pi / 180] * 3))
     a = assess_calibration(m, wrong, 0.1, 0.1)
     assert a.status == "poor_fit"
     gross = [w for w in a.warnings if w.startswith("gross misfit")]
@@ -242,7 +242,7 @@ def test_a_gross_misfit_outranks_rank_deficiency(m2_data):
     """Class: too few poses (rank-deficient) *and* the wrong geometry: the report must not hide
     the misfit behind "rank_deficient"."""
     m, data = m2_data
-    few = sj.calibration.make_calibration_data(data.strokes[:3], data.poses[:3])
+    few = sj.calibration.make_calibration_data(data.readings[:3], data.poses[:3])
     a = assess_calibration(preset("rubin_camera"), few, 0.1, 0.1)  # the camera hexapod's geometry for M2 data
     assert a.status == "poor_fit" and a.rank < a.n_params
     assert any(w.startswith("gross misfit") for w in a.warnings)

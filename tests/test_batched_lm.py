@@ -183,7 +183,7 @@ def test_leg_parameters_match_the_parameter_jacobians_sparsity(name):
     if legs is None:  # truly optional: legs that share parameters get the dense least-squares solve
         pytest.skip(f"{m.family}'s legs share parameters")
     poses = sj.calibration.random_poses(jax.random.key(1), 3, half=sj.calibration.reachable_travel(m))
-    jac = np.asarray(jax.jit(jax.jacfwd(lambda u: m.with_params(u).solve_inverse_kinematics(poses).strokes))(m.params))
+    jac = np.asarray(jax.jit(jax.jacfwd(lambda u: m.with_params(u).solve_inverse_kinematics(poses).readings))(m.params))
     assert sorted(i for leg in legs for i in leg) == list(range(m.n_params))
     for i, leg in enumerate(legs):
         outside = np.delete(jac[:, i, :], list(leg), axis=-1)
@@ -211,7 +211,7 @@ def test_leg_parameter_jacobian_is_the_autodiff_jacobians_leg_blocks(name):
 
 
 def simulated(nominal, actual, seed: int, n: int):
-    """``n`` 8-pose problems: strokes of the true mechanism at random poses in the nominal's
+    """``n`` 8-pose problems: readings of the true mechanism at random poses in the nominal's
     travel, with 0.1 µm noise (poses exact: a cheap stand-in for the paper's protocol, no FK)."""
     half = tuple(float(h) for h in sj.calibration.reachable_travel(nominal))
 
@@ -219,8 +219,8 @@ def simulated(nominal, actual, seed: int, n: int):
     def one(key):
         k1, k2 = jax.random.split(key)
         poses = sj.calibration.random_poses(k1, 8, half=half)
-        strokes = actual.solve_inverse_kinematics(poses).strokes + 1e-4 * jax.random.normal(k2, (8, 6))
-        return sj.calibration_problem(CalibrationData(strokes, poses), nominal, 5.0)
+        readings = actual.solve_inverse_kinematics(poses).readings + 1e-4 * jax.random.normal(k2, (8, 6))
+        return sj.calibration_problem(CalibrationData(readings, poses), nominal, 5.0)
 
     return jax.vmap(one)(jax.random.split(jax.random.key(seed), n))
 
@@ -251,7 +251,7 @@ def scipy_fit(problem):
     return r.x, 2.0 * r.cost
 
 
-# NOTE: "the same cost to rounding". The residuals are ~0.1 µm differences of strokes computed
+# NOTE: "the same cost to rounding". The residuals are ~0.1 µm differences of readings computed
 # from ~200 mm (6-PSS) or metre-scale (6-UPS) legs; their rounding (~1e-14 mm) makes the cost
 # itself uncertain by ~1e-10 relative, so two solvers at the same minimum agree to that, not
 # to 1e-16.
@@ -259,7 +259,7 @@ COST_RTOL = 1e-9
 
 
 def same_fit(problem, u1, u2, cost):
-    """Two fits determine the same strokes. 8 poses identify ~30 of the 36 (6-PSS) or 42
+    """Two fits determine the same readings. 8 poses identify ~30 of the 36 (6-PSS) or 42
     (6-UPS) parameters: compare what the data determine, the residual vector, not the raw
     parameters along the unidentified directions. The minimum is flat along those, the cost
     changing with the square of a residual change, so fits whose costs agree to COST_RTOL may

@@ -23,7 +23,7 @@ def test_residual_vanishes_at_true_parameters(noise_free, actual, nominal):
     assert np.abs(np.asarray(r_true)).max() <= 1e-12
     assert np.abs(np.asarray(r_nom)).max() > 1e-3
     # S is the sum of squared residuals (eq. 9), computed here from eq. 7 by hand.
-    by_hand = np.sum((np.asarray(data.strokes) - np.asarray(sj.inverse_kinematics(nominal, data.poses))) ** 2)
+    by_hand = np.sum((np.asarray(data.readings) - np.asarray(sj.inverse_kinematics(nominal, data.poses))) ** 2)
     np.testing.assert_allclose(sj.calibration_problem(data, nominal).cost(nominal.params), by_hand, rtol=1e-14)
 
 

@@ -11,8 +11,8 @@ def test_simulate_then_calibrate(tmp_path):
     assert main(["simulate", "--out", str(csv), "--seed", "4", "--sigma-um", "0", "--sigma-arcsec", "0"]) == 0
     data = sj.read_csv(csv)
     assert data.n_poses == 8
-    # Noise-free: the measured poses are the true poses, which the true model maps to the strokes.
-    np.testing.assert_allclose(sj.inverse_kinematics(sj.actual_geometry(), data.poses), data.strokes, atol=1e-9)
+    # Noise-free: the measured poses are the true poses, which the true model maps to the readings.
+    np.testing.assert_allclose(sj.inverse_kinematics(sj.actual_geometry(), data.poses), data.readings, atol=1e-9)
     out = tmp_path / "c.json"
     geo = tmp_path / "g.json"
     png = tmp_path / "r.png"

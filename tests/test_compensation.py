@@ -209,7 +209,7 @@ def test_strut_changes_agree_with_the_controllers_inverse_kinematics(camera):
     np.testing.assert_allclose(got, want, rtol=0, atol=0.05)
     # the library's own angle order would be off by µm at these tilts: the conversion matters
     naive = np.asarray(camera.solve_inverse_kinematics(
-        np.concatenate([off[:, :3] * 1e-3, np.deg2rad(off[:, 3:])], 1)).strokes)
+        np.concatenate([off[:, :3] * 1e-3, np.deg2rad(off[:, 3:])], 1)).readings)
     assert np.abs(naive * 1e3 - want).max() > 1.0
     back = sj.compensation._apply.poses_to_offsets(offsets_to_poses(off))
     np.testing.assert_allclose(back, off, rtol=0, atol=1e-9)

@@ -136,8 +136,8 @@ def test_effect_is_identity_at_zero_and_reproduces_the_simulation(effect):
     zero = m.predict(g.params, (e,), (jnp.zeros(e.n_params),), sim.data)
     np.testing.assert_allclose(zero, sj.inverse_kinematics(g, sim.data.poses), atol=1e-12)
     pred = m.predict(g.params, (e,), (jnp.asarray(sim.truth.theta),), sim.data)
-    np.testing.assert_allclose(pred, sim.data.strokes, atol=1e-11)
-    assert np.max(np.abs(np.asarray(zero) - np.asarray(sim.data.strokes))) > 1e-6  # the effect is visible
+    np.testing.assert_allclose(pred, sim.data.readings, atol=1e-11)
+    assert np.max(np.abs(np.asarray(zero) - np.asarray(sim.data.readings))) > 1e-6  # the effect is visible
 
 
 @pytest.mark.parametrize("effect", ORACLE_EFFECTS)
@@ -146,7 +146,7 @@ def test_simulated_mechanism_matches_independent_physics(effect):
     g = sj.actual_geometry()
     sim = dc.simulate_hidden_effect(3, effect, 5.0, n_random=12, plan=False, noise=False)
     q, measured = _oracle(effect, np.asarray(sim.truth.theta), g, np.asarray(sim.true_poses), sim.data)
-    np.testing.assert_allclose(sim.data.strokes, q, atol=1e-11)
+    np.testing.assert_allclose(sim.data.readings, q, atol=1e-11)
     np.testing.assert_allclose(sim.data.poses, measured, atol=1e-12)
     rng = np.random.default_rng(6)
     cond = dc.random_conditions(rng, 5)
@@ -279,7 +279,7 @@ def test_augmented_model_improves_true_control(reports, hidden):
     assert np.sqrt(np.mean(after[:, :3] ** 2)) < 0.3 * np.sqrt(np.mean(before[:, :3] ** 2))
 
 
-def test_commanded_strokes_of_backlash_model(reports):
+def test_commanded_readings_of_backlash_model(reports):
     fm = reports["backlash"].fitted
     targets = np.zeros((2, 6))
     dirs = np.array([[1.0] * 6, [-1.0] * 6])
@@ -313,7 +313,7 @@ def test_residual_plots(reports, tmp_path):
 
 def test_missing_columns_skip_candidates(model, hidden):
     d = hidden["stroke_scale"].data
-    bare = make_calibration_data(d.strokes, d.poses, temperature=d.temperature)
+    bare = make_calibration_data(d.readings, d.poses, temperature=d.temperature)
     chosen, skipped = select_effects(model, bare, 28)
     assert {s.effect for s in skipped} == {"backlash", "drift"}
     assert all("lack" in s.reason for s in skipped)

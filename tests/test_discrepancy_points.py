@@ -69,7 +69,7 @@ def points_session(camera, setup, effect, seed, *, perturb_um=30.0, noise=True, 
                 perturb_um=perturb_um)  # pose noise 0: ``poses`` are the true reached poses
     if scale_ppm is not None:
         k = rng.choice([-1.0, 1.0], 6) * rng.uniform(*scale_ppm, 6) * 1e-6
-        s = dataclasses.replace(s, strokes=s.strokes / (1.0 + k), effect="strut_scale", truth={"k": k})
+        s = dataclasses.replace(s, readings=s.readings / (1.0 + k), effect="strut_scale", truth={"k": k})
     k = len(targets.platform)
     pose, target = np.repeat(np.arange(N_POSES), k), np.tile(np.arange(k), N_POSES)
     in_b = (np.einsum("nij,nj->ni", rotation(s.poses[pose, 3:]), targets.platform[target]) + s.poses[pose, :3]
@@ -77,7 +77,7 @@ def points_session(camera, setup, effect, seed, *, perturb_um=30.0, noise=True, 
     points, refs = in_b @ rot.T + t, targets.base @ rot.T + t
     if noise:
         points, refs = points + tracker_noise(rng, points), refs + tracker_noise(rng, refs)
-    data = PointData(tuple(str(j + 1) for j in range(N_POSES)), s.strokes, pose, target, points,
+    data = PointData(tuple(str(j + 1) for j in range(N_POSES)), s.readings, pose, target, points,
                      np.arange(len(targets.base)), refs, s.directions, s.temperature, s.time)
     return data, s
 

@@ -66,7 +66,7 @@ def runs(request):
     cases = (None, *REGISTERED[family], *unregistered(family), *(NEAR_EQUIVALENT if family == "6-UPS" else ()))
     for c, eff in enumerate(cases):
         ses = session(family, geo, eff, np.random.default_rng([SEED, c, 77]), half=half, n=N_POSES)
-        data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+        data = make_calibration_data(ses.readings, ses.poses, ses.directions, ses.temperature, ses.time)
         tr, te = split_rows(N_POSES, 0.3, SEED)
         trains.append(data.take(tr))
         tests.append(data.take(te))
@@ -87,7 +87,7 @@ def test_the_simulators_crank_angles_are_the_mechanisms():
               + np.asarray(mech.v0))
     alpha = crank_angles(joints - np.asarray(mech.base), np.asarray(mech.azimuth), np.asarray(mech.crank_lengths),
                          np.asarray(mech.rod_lengths))
-    q = np.asarray(mech.solve_inverse_kinematics(poses).strokes)
+    q = np.asarray(mech.solve_inverse_kinematics(poses).readings)
     assert np.ptp(q) > 0.5  # the cranks sweep ~30° of the box, so the branch is tested away from zero
     np.testing.assert_allclose(alpha - np.asarray(mech.crank_zero), q, rtol=0, atol=1e-12)
 
@@ -220,7 +220,7 @@ def test_a_tracker_scale_is_a_common_strut_scale_of_a_scaled_geometry():
     mech, geo, half = _setup("6-UPS")
     ses = session("6-UPS", geo, "tracker_scale", np.random.default_rng(3), half=half, n=12, perturb_um=0.0,
                   sigma_um=0.0, sigma_arcsec=0.0)
-    data = make_calibration_data(ses.strokes, ses.poses, ses.directions, ses.temperature, ses.time)
+    data = make_calibration_data(ses.readings, ses.poses, ses.directions, ses.temperature, ses.time)
     s = ses.truth["s"]
     model = dc.model_for(mech)
     by_tracker = model.predict(model.base_initial, (dc.get_effect("6-ups", "tracker_scale"),),
@@ -228,9 +228,9 @@ def test_a_tracker_scale_is_a_common_strut_scale_of_a_scaled_geometry():
     scaled = sj.mechanism.UPSMechanism(mech.base * (1 + s), mech.platform * (1 + s), mech.v0, mech.lengths0 * (1 + s))
     m2 = dc.model_for(scaled)
     by_struts = m2.predict(m2.base_initial, (dc.get_effect("6-ups", "strut_scale"),), (np.full(6, s),), data)
-    np.testing.assert_allclose(np.asarray(by_tracker), ses.strokes, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(np.asarray(by_struts), ses.strokes, rtol=0, atol=1e-10)
-    assert np.max(np.abs(ses.strokes - np.asarray(sj.inverse_kinematics(mech, ses.poses)))) > 0.05  # ≥ 50 µm
+    np.testing.assert_allclose(np.asarray(by_tracker), ses.readings, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(np.asarray(by_struts), ses.readings, rtol=0, atol=1e-10)
+    assert np.max(np.abs(ses.readings - np.asarray(sj.inverse_kinematics(mech, ses.poses)))) > 0.05  # ≥ 50 µm
 
 
 def test_near_equivalent_and_instrument_effects_get_no_confident_wrong_name(runs):

@@ -24,8 +24,8 @@ def test_parameter_jacobian_matches_finite_differences(geoms):
     J = np.asarray(nom.parameter_jacobian(poses))
     u, h = np.asarray(nom.params), 1e-5
     fd = np.stack([
-        (np.asarray(PSSMechanism.from_params(u + h * e).solve_inverse_kinematics(poses).strokes)
-         - np.asarray(PSSMechanism.from_params(u - h * e).solve_inverse_kinematics(poses).strokes)).reshape(-1)
+        (np.asarray(PSSMechanism.from_params(u + h * e).solve_inverse_kinematics(poses).readings)
+         - np.asarray(PSSMechanism.from_params(u - h * e).solve_inverse_kinematics(poses).readings)).reshape(-1)
         / (2 * h)
         for e in np.eye(36)
     ], axis=1)
@@ -40,7 +40,7 @@ def test_kinematic_snapshot_and_control_error_sensitivity_match_finite_differenc
     _, act = geoms
     poses = np.asarray(sj.calibration.random_poses(jax.random.key(3), 4))
     snap = kinematic_snapshot(act, poses, sigma_um=2.0, sigma_arcsec=3.0)
-    ik = lambda mech, p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).strokes)  # noqa: E731
+    ik = lambda mech, p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).readings)  # noqa: E731
     # two compiled programs fuse the same arithmetic differently: 1e-14 mm apart, not bitwise
     np.testing.assert_allclose(snap.readings, ik(act, poses), rtol=0, atol=1e-12)
     assert snap.reachable.shape == (4,) and snap.reachable.all()

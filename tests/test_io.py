@@ -35,7 +35,7 @@ def test_csv_without_optional_columns(tmp_path):
     sj.write_csv(path, data, extra={"note_a,note_b": np.ones((7, 2))})
     back = sj.read_csv(path)
     assert back.directions is None and back.temperature is None and back.time is None
-    np.testing.assert_array_equal(back.strokes, data.strokes)
+    np.testing.assert_array_equal(back.readings, data.readings)
 
 
 def _write(path, header, rows):

@@ -62,7 +62,7 @@ def test_ik_exactly_zero_at_zero_pose(seed):
 
 
 def test_ik_matches_direct_numpy_formula(preset, grid):
-    q = np.asarray(jit_ik(preset, jnp.asarray(grid)).strokes)
+    q = np.asarray(jit_ik(preset, jnp.asarray(grid)).readings)
     up, lo, v0 = (np.asarray(x) for x in (preset.upper, preset.lower, preset.v0))
     ref = np.array([numpy_ik(up, lo, v0, p) for p in grid])
     # The direct formula loses ~1e-13 mm to cancellation; 1e-10 mm leaves margin.
@@ -79,7 +79,7 @@ def test_fk_of_ik_round_trip(preset, grid):
 
 
 def test_ik_of_fk_round_trip(preset):
-    # Strokes not produced by IK: IK of the grid perturbed by ±0.1 mm per leg.
+    # Readings not produced by IK: IK of the grid perturbed by ±0.1 mm per leg.
     grid = travel_grid(seed=5, n_random=100)
     rng = np.random.default_rng(3)
     q = np.asarray(sj.inverse_kinematics(preset, grid)) + rng.uniform(-0.1, 0.1, (len(grid), 6))
@@ -104,7 +104,7 @@ def test_jacobian_matches_finite_differences(actual):
         for k in range(6):
             dp = np.zeros(6)
             dp[k] = h
-            hi, lo = jit_ik(actual, pose + dp).strokes, jit_ik(actual, pose - dp).strokes
+            hi, lo = jit_ik(actual, pose + dp).readings, jit_ik(actual, pose - dp).readings
             fd[:, k] = (np.asarray(hi) - np.asarray(lo)) / (2 * h)
         # Central differences: truncation O(h²)·|q'''| ~ 1e-12, rounding ~1e-13/h ~ 1e-7.
         np.testing.assert_allclose(J, fd, atol=1e-6, rtol=1e-7)
@@ -113,7 +113,7 @@ def test_jacobian_matches_finite_differences(actual):
 def test_unreachable_pose_raises_and_reports(actual):
     far = np.array([300.0, 0, 0, 0, 0, 0])
     sol = actual.solve_inverse_kinematics(jnp.asarray(far))
-    assert not bool(sol.reachable) and np.all(np.isfinite(np.asarray(sol.strokes)))
+    assert not bool(sol.reachable) and np.all(np.isfinite(np.asarray(sol.readings)))
     with pytest.raises(ValueError, match="unreachable"):
         sj.inverse_kinematics(actual, far)
     batch = np.stack([np.zeros(6), far])
@@ -136,7 +136,7 @@ def test_bad_inputs_raise_clear_errors(actual):
         sj.mechanism.PSSMechanism(np.zeros((5, 3)), np.zeros((6, 3)))
 
 
-def test_unattainable_strokes_report_status_not_nan(actual):
+def test_unattainable_readings_report_status_not_nan(actual):
     sol = sj.forward_kinematics(actual, np.array([[0, 0, 500.0, 0, 0, 0], [0.1] * 6]))
     assert list(np.asarray(sol.converged)) == [False, True]
     assert np.all(np.isfinite(np.asarray(sol.poses)))
@@ -146,10 +146,10 @@ def test_unattainable_strokes_report_status_not_nan(actual):
 
 def test_jit_vmap_and_broadcasting_agree(actual, grid):
     g = jnp.asarray(grid)
-    plain = actual.solve_inverse_kinematics(g).strokes
-    vm = jax.vmap(actual.solve_inverse_kinematics)(g).strokes
-    jv = jax.jit(jax.vmap(actual.solve_inverse_kinematics))(g).strokes
-    j = jit_ik(actual, g).strokes
+    plain = actual.solve_inverse_kinematics(g).readings
+    vm = jax.vmap(actual.solve_inverse_kinematics)(g).readings
+    jv = jax.jit(jax.vmap(actual.solve_inverse_kinematics))(g).readings
+    j = jit_ik(actual, g).readings
     # Within one compilation mode the results are bit-identical...
     np.testing.assert_array_equal(vm, plain)
     np.testing.assert_array_equal(jv, j)
@@ -164,7 +164,7 @@ def test_vmap_over_parameter_sets(grid):
     v0s = jnp.stack([g.v0 for g in geoms])
 
     def ik(p, v):
-        return sj.mechanism.PSSMechanism.from_params(p, v).solve_inverse_kinematics(jnp.asarray(grid)).strokes
+        return sj.mechanism.PSSMechanism.from_params(p, v).solve_inverse_kinematics(jnp.asarray(grid)).readings
 
     batched = jax.jit(jax.vmap(ik))(params, v0s)
     for g, q in zip(geoms, batched, strict=True):

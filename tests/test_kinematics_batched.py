@@ -39,8 +39,8 @@ def test_ik_soa_matches_reference(name):
     poses = travel_poses(0, 257)
     ref = ik_ref(g, poses)
     got = ik_soa(g, poses.T)
-    assert got.strokes.shape == (6, 257) and got.reachable.shape == (257,)
-    np.testing.assert_allclose(np.asarray(got.strokes).T, ref.strokes, rtol=0, atol=1e-12)
+    assert got.readings.shape == (6, 257) and got.reachable.shape == (257,)
+    np.testing.assert_allclose(np.asarray(got.readings).T, ref.readings, rtol=0, atol=1e-12)
     np.testing.assert_allclose(np.asarray(got.margin).T, ref.margin, rtol=1e-12, atol=0)
     np.testing.assert_array_equal(got.reachable, ref.reachable)
     assert bool(np.all(got.reachable))
@@ -52,7 +52,7 @@ def test_ik_soa_exact_branch_beyond_polynomial_range():
     poses[5, 4] = POLY_RANGE + 0.1  # outside the polynomial's range → jnp.sin/cos path
     ref = ik_ref(g, poses)
     got = ik_soa(g, poses.T)
-    np.testing.assert_allclose(np.asarray(got.strokes).T, ref.strokes, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(got.readings).T, ref.readings, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(got.reachable, ref.reachable)
 
 
@@ -62,12 +62,12 @@ def test_ik_soa_trailing_batch_shape_and_unreachable():
     poses[3, 0] = 400.0  # no rod spans that: unreachable, reported
     ref = ik_ref(g, poses)
     got = ik_soa(g, poses.T.reshape(6, 4, 5))
-    assert got.strokes.shape == (6, 4, 5) and got.reachable.shape == (4, 5)
+    assert got.readings.shape == (6, 4, 5) and got.reachable.shape == (4, 5)
     np.testing.assert_array_equal(np.asarray(got.reachable).reshape(20), ref.reachable)
     assert not bool(got.reachable.reshape(20)[3])
-    assert bool(np.all(np.isfinite(got.strokes)))
+    assert bool(np.all(np.isfinite(got.readings)))
     np.testing.assert_allclose(
-        np.asarray(got.strokes).reshape(6, 20).T, ref.strokes, rtol=0, atol=1e-12
+        np.asarray(got.readings).reshape(6, 20).T, ref.readings, rtol=0, atol=1e-12
     )
 
 
@@ -75,10 +75,10 @@ def test_ik_soa_vmaps_over_geometries():
     poses = travel_poses(3, 16)
     params = jnp.stack([GEOMETRIES["nominal"].params, GEOMETRIES["actual"].params])
     got = jax.jit(
-        jax.vmap(lambda p: inverse_kinematics_soa(sj.mechanism.PSSMechanism.from_params(p), poses.T).strokes)
+        jax.vmap(lambda p: inverse_kinematics_soa(sj.mechanism.PSSMechanism.from_params(p), poses.T).readings)
     )(params)
     for k, name in enumerate(("nominal", "actual")):
-        ref = ik_ref(GEOMETRIES[name], poses).strokes
+        ref = ik_ref(GEOMETRIES[name], poses).readings
         np.testing.assert_allclose(np.asarray(got[k]).T, ref, rtol=0, atol=1e-12)
 
 
@@ -97,9 +97,9 @@ def test_polynomial_branch_matches_the_libm_branch():
     poses = np.zeros((3 * len(x), 6))
     for k in range(3):
         poses[k * len(x):(k + 1) * len(x), 3 + k] = x
-    poly = inverse_kinematics_soa(g, poses.T).strokes
+    poly = inverse_kinematics_soa(g, poses.T).readings
     beyond = np.concatenate([poses, [[0, 0, 0, 0, 0, POLY_RANGE + 0.1]]])
-    exact = inverse_kinematics_soa(g, beyond.T).strokes[:, :-1]
+    exact = inverse_kinematics_soa(g, beyond.T).readings[:, :-1]
     np.testing.assert_allclose(poly, exact, rtol=0, atol=1e-13)
 
 
@@ -107,7 +107,7 @@ def test_analytic_jacobian_matches_autodiff():
     g = sj.actual_geometry(v0=(0.3, -0.2, 1.5))
     poses = jnp.asarray(travel_poses(4, 8))
     jac = jax.jit(lambda g, p: g.ik_and_jacobian(p)[2])(g, poses)
-    autodiff = jax.jacfwd(lambda p: g.solve_inverse_kinematics(p).strokes)
+    autodiff = jax.jacfwd(lambda p: g.solve_inverse_kinematics(p).readings)
     ref = jax.jit(jax.vmap(autodiff))(poses)
     np.testing.assert_allclose(jac, ref, rtol=0, atol=1e-11)
 
@@ -116,8 +116,8 @@ def test_analytic_jacobian_matches_autodiff():
 def test_fk_newton_matches_reference(chunk_size):
     g = sj.actual_geometry()
     poses = travel_poses(5, 30)  # 30 = 4 chunks of 7 + 2, exercises the padding
-    strokes = np.asarray(ik_ref(g, poses).strokes)
-    got = forward_kinematics_newton(g, strokes, chunk_size=chunk_size)
+    readings = np.asarray(ik_ref(g, poses).readings)
+    got = forward_kinematics_newton(g, readings, chunk_size=chunk_size)
     assert bool(np.all(got.converged))
     assert float(np.max(got.residual)) <= 1e-11
     np.testing.assert_allclose(got.poses, poses, rtol=0, atol=1e-10)
@@ -127,9 +127,9 @@ def test_fk_newton_matches_reference(chunk_size):
 def test_fk_newton_batch_shape_and_failure_is_reported():
     g = sj.nominal_geometry()
     poses = travel_poses(6, 6)
-    strokes = np.array(ik_ref(g, poses).strokes)
-    strokes[2] = [500.0, -500.0, 500.0, -500.0, 500.0, -500.0]  # no pose gives these
-    got = forward_kinematics_newton(g, strokes.reshape(2, 3, 6))
+    readings = np.array(ik_ref(g, poses).readings)
+    readings[2] = [500.0, -500.0, 500.0, -500.0, 500.0, -500.0]  # no pose gives these
+    got = forward_kinematics_newton(g, readings.reshape(2, 3, 6))
     assert got.poses.shape == (2, 3, 6) and got.converged.shape == (2, 3)
     conv = np.asarray(got.converged).reshape(6)
     assert not conv[2] and conv[[0, 1, 3, 4, 5]].all()
@@ -140,7 +140,7 @@ def test_ik_sharded_single_device_is_soa():
     poses = travel_poses(7, 33)
     got = jax.jit(inverse_kinematics_sharded)(g, poses.T)
     ref = ik_ref(g, poses)
-    np.testing.assert_allclose(np.asarray(got.strokes).T, ref.strokes, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(got.readings).T, ref.readings, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match=r"shape \(6, N\)"):
         inverse_kinematics_sharded(g, poses.T.reshape(6, 3, 11))
 
@@ -158,8 +158,8 @@ for n in (33, 34):  # odd: padded to the device count
     p[3, 0] = 400.0
     ref = jax.jit(lambda m, q: m.solve_inverse_kinematics(q))(g, p)
     got = jax.jit(inverse_kinematics_sharded)(g, p.T)
-    assert got.strokes.shape == (6, n) and got.reachable.shape == (n,)
-    assert float(np.max(np.abs(np.asarray(got.strokes).T - ref.strokes))) <= 1e-12
+    assert got.readings.shape == (6, n) and got.reachable.shape == (n,)
+    assert float(np.max(np.abs(np.asarray(got.readings).T - ref.readings))) <= 1e-12
     assert np.array_equal(np.asarray(got.reachable), np.asarray(ref.reachable))
     assert not bool(got.reachable[3])
 print("ok")

@@ -101,7 +101,7 @@ def test_forward_kinematics_starts_at_the_exported_home(configs, name):
     np.testing.assert_array_equal(home, np.concatenate([np.asarray(m.v0), np.zeros(3)]))
     joint_home = np.array([float(ini[f"JOINT_{n}"]["HOME"]) for n in range(6)])
     # the library's strut lengths at its zero pose are the joint homes
-    lib = np.asarray(m.lengths0 + m.solve_inverse_kinematics(np.zeros(6)).strokes)
+    lib = np.asarray(m.lengths0 + m.solve_inverse_kinematics(np.zeros(6)).readings)
     np.testing.assert_allclose(joint_home, lib, rtol=0, atol=1e-9)
     rc, pose, iterations = genhexkins_forward(base, platform, joint_home, home)
     assert rc == 0 and iterations <= 3
@@ -113,7 +113,7 @@ def test_forward_kinematics_starts_at_the_exported_home(configs, name):
     pose_lib = np.array([0.3, -0.2, 0.25, 1e-4, -2e-4, 3e-4]) * np.asarray(m.travel_half_widths) / np.array(
         [1, 1, 1, 1e-3, 1e-3, 1e-3]
     )
-    joints = np.asarray(m.lengths0 + m.solve_inverse_kinematics(pose_lib).strokes)
+    joints = np.asarray(m.lengths0 + m.solve_inverse_kinematics(pose_lib).readings)
     rc, pose, _ = genhexkins_forward(base, platform, joints, home)
     assert rc == 0
     np.testing.assert_allclose(pose[:3], pose_lib[:3] + np.asarray(m.v0), rtol=0, atol=1e-8)
@@ -138,8 +138,8 @@ def test_limits_offsets_and_units(configs, name):
             pose = np.zeros(6)
             value = float(ini[f"AXIS_{axis}"][bound])
             pose[k] = value - float(m.v0[k]) if k < 3 else np.radians(value)
-            strokes = np.asarray(m.solve_inverse_kinematics(pose).strokes)
-            gap = np.min(np.concatenate([strokes - limits[:, 0], limits[:, 1] - strokes]))
+            readings = np.asarray(m.solve_inverse_kinematics(pose).readings)
+            gap = np.min(np.concatenate([readings - limits[:, 0], limits[:, 1] - readings]))
             assert abs(gap) < 1e-6, (axis, bound, gap)
     for pin in ("tool-offset", "spindle-offset", "screw-lead"):
         assert pins[f"genhexkins.{pin}"] == 0.0
@@ -181,7 +181,7 @@ def _strut_condition(mech) -> float:
     import jax.numpy as jnp
 
     h = 1e-6
-    q = lambda p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).strokes)  # noqa: E731
+    q = lambda p: np.asarray(mech.solve_inverse_kinematics(jnp.asarray(p)).readings)  # noqa: E731
     jac = np.stack([(q(h * e) - q(-h * e)) / (2 * h) for e in np.eye(6)], axis=1)
     jac[:, 3:] /= np.max(np.linalg.norm(np.asarray(mech.platform), axis=1))
     s = np.linalg.svd(jac, compute_uv=False)

@@ -63,7 +63,7 @@ def overrides(m: AbstractMechanism, method: str) -> bool:
 
 @jax.jit
 def _readings(m, poses):
-    return m.solve_inverse_kinematics(poses).strokes
+    return m.solve_inverse_kinematics(poses).readings
 
 
 @pytest.mark.parametrize("name", PRESETS)
@@ -107,7 +107,7 @@ def test_parameter_jacobian_matches_central_differences(name):
     jac = np.asarray(m.parameter_jacobian(poses))
     u, h = np.asarray(m.params), 1e-4
     us = jnp.asarray(np.concatenate([u + h * np.eye(len(u)), u - h * np.eye(len(u))]))
-    q = np.asarray(jax.jit(jax.vmap(lambda v: m.with_params(v).solve_inverse_kinematics(poses).strokes))(us))
+    q = np.asarray(jax.jit(jax.vmap(lambda v: m.with_params(v).solve_inverse_kinematics(poses).readings))(us))
     fd = ((q[:len(u)] - q[len(u):]).reshape(len(u), -1) / (2 * h)).T
     # central differences of a smooth ~200 mm-scale function: truncation ~h² and rounding
     # ~1e-13/h; 1e-8 (mm or rad per parameter unit) is above both and far below any real entry
@@ -130,9 +130,9 @@ def test_vmap_over_mechanisms_matches_a_loop(name):
     rng = np.random.default_rng(4)
     us = np.asarray(m.params) + rng.normal(0, 0.1, (4, m.n_params))
     poses = jnp.asarray(travel(5, 6, m))
-    batched = jax.vmap(lambda u: m.with_params(u).solve_inverse_kinematics(poses).strokes)(jnp.asarray(us))
+    batched = jax.vmap(lambda u: m.with_params(u).solve_inverse_kinematics(poses).readings)(jnp.asarray(us))
     for u, b in zip(us, batched, strict=True):
-        np.testing.assert_array_equal(m.with_params(jnp.asarray(u)).solve_inverse_kinematics(poses).strokes, b)
+        np.testing.assert_array_equal(m.with_params(jnp.asarray(u)).solve_inverse_kinematics(poses).readings, b)
 
 
 def test_file_without_family_key_is_the_paper_6pss(tmp_path):

@@ -116,7 +116,7 @@ def test_predicted_uncertainty_covers_the_error(run):
     least-squares estimate is unbiased there whatever the truth's held part)."""
     data, targets, nominal, true = run["data"], run["targets"], run["nominal"], run["true"]
     rot, t = default_registration(nominal)
-    poses = np.asarray(forward_kinematics(true, jnp.asarray(data.strokes)).poses)
+    poses = np.asarray(forward_kinematics(true, jnp.asarray(data.readings)).poses)
     p = poses[data.pose_index]
     in_b = np.stack([np_rotation(x[3:]) @ a for x, a in zip(p, targets.platform[data.target_index], strict=True)])
     exact = (in_b + p[:, :3] + np.asarray(true.v0)) @ rot.T + t
@@ -217,22 +217,22 @@ def test_points_files_of_every_family(family, tmp_path):
     data = read_points_csv(tmp_path / "points.csv", targets, reading_unit=nominal.reading_unit)
     lines = [x.split(",") for x in (tmp_path / "points.csv").read_text().splitlines()[1:] if not x.startswith("ref")]
     cells = np.array([[float(c) for c in x[2:8]] for x in lines])
-    in_file = np.degrees(data.strokes) if nominal.reading_unit == "rad" else data.strokes
+    in_file = np.degrees(data.readings) if nominal.reading_unit == "rad" else data.readings
     np.testing.assert_allclose(cells, in_file[data.pose_index], rtol=1e-14, atol=0)
     rot, t = default_registration(nominal)
 
-    def chi2(strokes):
-        fk = forward_kinematics(true, jnp.asarray(strokes))
+    def chi2(readings):
+        fk = forward_kinematics(true, jnp.asarray(readings))
         p = np.asarray(fk.poses)[data.pose_index]
         in_b = np.stack([np_rotation(x[3:]) @ a for x, a in zip(p, targets.platform[data.target_index], strict=True)])
         r = data.points - ((in_b + p[:, :3] + np.asarray(true.v0)) @ rot.T + t)
         w = tracker_whitening(data.points, 5.0, 2.5)  # simulate's default noise
         return float(np.sum(np.einsum("nij,nj->ni", w, r) ** 2)), bool(np.all(np.asarray(fk.converged)))
 
-    value, converged = chi2(data.strokes)
+    value, converged = chi2(data.readings)
     assert converged and 1e-3 < chi2_dist.sf(value, 3 * len(data.points)) < 1 - 1e-3
     if nominal.reading_unit == "rad":
-        value, converged = chi2(read_points_csv(tmp_path / "points.csv", targets).strokes)
+        value, converged = chi2(read_points_csv(tmp_path / "points.csv", targets).readings)
         assert not converged or value > 100 * 3 * len(data.points)
 
 

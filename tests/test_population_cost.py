@@ -45,8 +45,8 @@ def _problem_and_population(mechanism, seed, n=40, m=9):
     half = mechanism.travel_half_widths
     half = np.array([1.0, 1.0, 1.0, 0.01, 0.01, 0.01]) if half is None else np.asarray(half)
     poses = rng.uniform(-0.8, 0.8, (m, 6)) * half
-    strokes = np.asarray(mechanism.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
-    data = make_calibration_data(strokes + rng.normal(0.0, 1e-3, strokes.shape), poses)
+    readings = np.asarray(mechanism.solve_inverse_kinematics(jnp.asarray(poses)).readings)
+    data = make_calibration_data(readings + rng.normal(0.0, 1e-3, readings.shape), poses)
     problem = calibration_problem(data, mechanism, half_width=100.0)
     p = np.asarray(mechanism.params)
     pop = p + rng.uniform(-2.0, 2.0, (n, p.size))

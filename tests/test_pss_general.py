@@ -45,7 +45,7 @@ def np_rotation(phi, theta, psi):
     return rz @ ry @ rx
 
 
-def np_strokes(upper, lower, v0, axes, lengths, pose):
+def np_readings(upper, lower, v0, axes, lengths, pose):
     """The smaller root of ``|w − q·n|² = L²`` by the textbook quadratic formula."""
     w = upper @ np_rotation(*pose[3:]).T + pose[:3] + v0 - lower
     b = np.sum(w * axes, axis=1)
@@ -72,9 +72,9 @@ def test_vertical_axes_reproduce_the_paper_model(param_set):
 def test_inverse_kinematics_matches_numpy_quadratic():
     m = general_mechanism()
     poses = np.asarray(grid(2, 100))
-    ours = np.asarray(m.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    ours = np.asarray(m.solve_inverse_kinematics(jnp.asarray(poses)).readings)
     args = [np.asarray(x) for x in (m.upper, m.lower, m.v0, m.slider_axes, m.rod_lengths)]
-    ref = np.stack([np_strokes(*args, p) for p in poses])
+    ref = np.stack([np_readings(*args, p) for p in poses])
     # the textbook formula subtracts two ~217 mm numbers: ~1e-13 mm of rounding
     np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-11)
 
@@ -90,7 +90,7 @@ def test_tilts_are_the_actuator_tilt_effect():
     data = sj.calibration.make_calibration_data(np.zeros((30, 6)), poses)
     effect = get_effect("6-pss", "actuator_tilt")
     ref = model.predict(model.base_initial, (effect,), (jnp.asarray(theta),), data, control=True)
-    np.testing.assert_allclose(np.asarray(gen.solve_inverse_kinematics(poses).strokes), np.asarray(ref),
+    np.testing.assert_allclose(np.asarray(gen.solve_inverse_kinematics(poses).readings), np.asarray(ref),
                                rtol=0, atol=1e-12)
 
 
@@ -100,8 +100,8 @@ def test_pose_jacobian_matches_central_differences():
     _, _, jac = m.ik_and_jacobian(poses)
     h = np.array([1e-5] * 3 + [1e-7] * 3)
     fd = np.stack(
-        [(np.asarray(m.solve_inverse_kinematics(poses + h[k] * np.eye(6)[k]).strokes)
-          - np.asarray(m.solve_inverse_kinematics(poses - h[k] * np.eye(6)[k]).strokes)) / (2 * h[k])
+        [(np.asarray(m.solve_inverse_kinematics(poses + h[k] * np.eye(6)[k]).readings)
+          - np.asarray(m.solve_inverse_kinematics(poses - h[k] * np.eye(6)[k]).readings)) / (2 * h[k])
          for k in range(6)], axis=-1)
     np.testing.assert_allclose(np.asarray(jac), fd, rtol=1e-7, atol=1e-6)  # central-difference truncation
 
@@ -113,8 +113,8 @@ def test_parameter_jacobian_matches_central_differences():
     u = np.asarray(m.params)
     h = 1e-6
     steps = jnp.asarray(u + h * np.eye(len(u))), jnp.asarray(u - h * np.eye(len(u)))
-    strokes = jax.jit(jax.vmap(lambda p: m.with_params(p).solve_inverse_kinematics(poses).strokes.reshape(-1)))
-    fd = (np.asarray(strokes(steps[0])) - np.asarray(strokes(steps[1]))).T / (2 * h)
+    readings = jax.jit(jax.vmap(lambda p: m.with_params(p).solve_inverse_kinematics(poses).readings.reshape(-1)))
+    fd = (np.asarray(readings(steps[0])) - np.asarray(readings(steps[1]))).T / (2 * h)
     assert jac.shape == (60, 54)
     # each leg's readings depend on its own parameters only, as leg_parameters declares
     for i, cols in enumerate(m.leg_parameters):
@@ -129,7 +129,7 @@ def test_parameter_jacobian_matches_central_differences():
 def test_forward_kinematics_round_trip():
     m = general_mechanism()
     poses = grid(7, 64)
-    q = m.solve_inverse_kinematics(poses).strokes
+    q = m.solve_inverse_kinematics(poses).readings
     fk = sj.forward_kinematics(m, q, jnp.zeros_like(poses))
     assert bool(np.all(fk.converged))
     err = np.abs(np.asarray(fk.poses - poses))
@@ -146,8 +146,8 @@ def test_params_and_file_round_trip(param_set, tmp_path):
     back = load_mechanism(tmp_path / "g.json")
     assert back.param_set == param_set
     poses = grid(8, 20)
-    np.testing.assert_allclose(np.asarray(back.solve_inverse_kinematics(poses).strokes),
-                               np.asarray(m2.solve_inverse_kinematics(poses).strokes), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(back.solve_inverse_kinematics(poses).readings),
+                               np.asarray(m2.solve_inverse_kinematics(poses).readings), rtol=0, atol=1e-12)
 
 
 def test_file_keys_choose_the_parameter_set(tmp_path):
@@ -245,8 +245,8 @@ def test_discrepancy_model_wraps_a_generalised_mechanism(param_set):
     poses = grid(6, 12)
     data = sj.calibration.make_calibration_data(np.zeros((12, 6)), poses, temperature=np.full(12, 30.0))
     np.testing.assert_allclose(model.predict(model.base_initial, (), (), data),
-                               g.solve_inverse_kinematics(poses).strokes, rtol=0, atol=1e-12)
+                               g.solve_inverse_kinematics(poses).readings, rtol=0, atol=1e-12)
     alpha = np.full(6, 2e-5)  # 1/K, 10 K above the reference: every rod 2e-4 of its length longer
     longer = PSSMechanism(g.upper, g.lower, g.v0, axes=g.slider_axes, rod_lengths=g.rod_lengths * (1 + 10 * alpha))
     got = model.predict(model.base_initial, (get_effect("6-pss", "thermal_expansion"),), (jnp.asarray(alpha),), data)
-    np.testing.assert_allclose(got, longer.solve_inverse_kinematics(poses).strokes, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(got, longer.solve_inverse_kinematics(poses).readings, rtol=0, atol=1e-11)

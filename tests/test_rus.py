@@ -76,10 +76,10 @@ def test_preset_is_eiseles_published_design(rotary):
 
 def test_readings_are_eiseles_crank_angles(rotary):
     poses = travel_poses(rotary, 40)
-    q = np.asarray(rotary.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    q = np.asarray(rotary.solve_inverse_kinematics(jnp.asarray(poses)).readings)
     ref = eisele_crank_angles(rotary, poses) - np.asarray(rotary.crank_zero)
     np.testing.assert_allclose(q, ref, rtol=0, atol=1e-13)  # rad; two formulas, rounding ~1e-15
-    np.testing.assert_array_equal(rotary.solve_inverse_kinematics(jnp.zeros(6)).strokes, np.zeros(6))
+    np.testing.assert_array_equal(rotary.solve_inverse_kinematics(jnp.zeros(6)).readings, np.zeros(6))
     # and the leg itself: the crank end lies one rod length from the platform joint
     alpha = q + np.asarray(rotary.crank_zero)
     u = np.stack([np.cos(rotary.azimuth), np.sin(rotary.azimuth), np.zeros(6)], -1)
@@ -95,7 +95,7 @@ def test_crank_limits_and_rod_reach_bound_the_workspace(rotary):
     down = jnp.array([0.0, 0.0, -62.0, 0.0, 0.0, 0.0])  # cranks beyond −90°, still assembled
     assert bool(free.solve_inverse_kinematics(down).reachable)
     sol = rotary.solve_inverse_kinematics(down)
-    alpha = np.asarray(sol.strokes + rotary.crank_zero)
+    alpha = np.asarray(sol.readings + rotary.crank_zero)
     assert not bool(sol.reachable) and np.all(alpha < -np.pi / 2)
     np.testing.assert_allclose(sol.margin, 50.0 * (alpha + np.pi / 2), rtol=1e-12)  # the arc beyond, mm
     up = jnp.array([0.0, 0.0, 50.0, 0.0, 0.0, 0.0])  # the rods cannot reach the cranks' circles
@@ -174,7 +174,7 @@ def test_model_wraps_the_mechanism_and_its_effects_match_independent_physics(rot
     model = dc.model_for(rotary)
     assert model.name == "6-rus" and model.report_unit == "µrad"
     np.testing.assert_array_equal(model.predict(model.base_initial, (), (), rows),
-                                  rotary.solve_inverse_kinematics(rows.poses).strokes)
+                                  rotary.solve_inverse_kinematics(rows.poses).readings)
     poses, zero = np.asarray(rows.poses), np.asarray(rotary.crank_zero)
     alpha = eisele_crank_angles(rotary, poses)
     k = np.array([3e-4, -2e-4, 1e-4, 5e-4, -4e-4, 2e-4])
@@ -244,6 +244,6 @@ def test_cli_diagnoses_a_rotary_geometry_file_and_keeps_its_units(rotary, tmp_pa
     saved = json.loads(model_json.read_text())
     assert "sigma_reading_urad" in saved and "sigma_stroke_um" not in saved and fm.model.name == "6-rus"
     data = sj.read_csv(csv, reading_unit="rad")  # crank angles in degrees in the file, exactly back
-    np.testing.assert_array_equal(data.strokes, hidden.data.strokes)
+    np.testing.assert_array_equal(data.readings, hidden.data.readings)
     np.testing.assert_allclose(fm.predict(data), report.fitted.predict(data), rtol=0, atol=1e-12)
     assert main(["diagnose", str(csv), "--geometry", str(geo), "--sigma-stroke-um", "1"]) == 2

@@ -42,8 +42,8 @@ def test_simulated_data_follow_the_protocol(nominal, actual):
     targets = sj.calibration.random_poses(k1, 400)
     sim = sj.simulate_measurements(k2, nominal, actual, targets, sigma_um=0.5, sigma_arcsec=2.0)
     assert bool(np.all(sim.converged))
-    np.testing.assert_allclose(sim.data.strokes, sj.inverse_kinematics(nominal, targets), atol=0)
-    np.testing.assert_allclose(sj.inverse_kinematics(actual, sim.true_poses), sim.data.strokes, atol=1e-10)
+    np.testing.assert_allclose(sim.data.readings, sj.inverse_kinematics(nominal, targets), atol=0)
+    np.testing.assert_allclose(sj.inverse_kinematics(actual, sim.true_poses), sim.data.readings, atol=1e-10)
     noise = np.asarray(sim.data.poses - sim.true_poses)
     std = np.concatenate([noise[:, :3].std(0) / UM, noise[:, 3:].std(0) / ARCSEC])
     # 400 samples: the sample std is within ±15 % of σ with probability > 0.999 per component.

@@ -65,7 +65,7 @@ def test_unreachable_row_is_named_before_calibrating(measured, tmp_path, capsys)
     poses = np.asarray(data.poses).copy()
     poses[3, 0] = 500.0  # mm: sideways beyond every rod
     path = tmp_path / "bad.csv"
-    write_csv(path, sj.calibration.make_calibration_data(data.strokes, poses))
+    write_csv(path, sj.calibration.make_calibration_data(data.readings, poses))
     rc, _, err = run(["calibrate", str(path)], capsys)
     assert rc == 2 and "rows [4]" in err and "cannot reach" in err
 
@@ -103,7 +103,7 @@ def test_radians_for_degrees_fail_the_goodness_of_fit(measured):
     """Angles read in the wrong unit: the fit converges, but to residuals far above the noise."""
     data, _ = measured
     nominal = sj.nominal_geometry()
-    wrong = sj.calibration.make_calibration_data(data.strokes, data.poses * jnp.array([1, 1, 1] + [np.pi / 180] * 3))
+    wrong = sj.calibration.make_calibration_data(data.readings, data.poses * jnp.array([1, 1, 1] + [np.pi / 180] * 3))
     res = sj.calibrate(sj.calibration_problem(wrong, nominal), "lm-batched")
     a = assess_calibration(nominal.with_params(res.params), wrong, 0.1, 0.1)
     assert a.status == "poor_fit" and a.rms_ratio > 10 and a.p_value < 1e-3
@@ -117,7 +117,7 @@ def test_lengths_in_metres_fail_the_goodness_of_fit(measured):
     data, _ = measured
     nominal = sj.nominal_geometry()
     scale = jnp.array([1e-3] * 3 + [1.0] * 3)
-    metres = sj.calibration.make_calibration_data(data.strokes * 1e-3, data.poses * scale)
+    metres = sj.calibration.make_calibration_data(data.readings * 1e-3, data.poses * scale)
     res = sj.calibrate(sj.calibration_problem(metres, nominal), "lm-batched")
     a = assess_calibration(nominal.with_params(res.params), metres, 0.1, 0.1)
     assert a.status == "poor_fit" and a.p_value > 1 - 1e-3  # p of a χ² at least this large
@@ -196,7 +196,7 @@ def test_excel_csv_with_byte_order_mark_reads(measured, tmp_path):
     data, csv_path = measured
     bom = tmp_path / "bom.csv"
     bom.write_bytes(b"\xef\xbb\xbf" + open(csv_path, "rb").read())
-    np.testing.assert_array_equal(np.asarray(read_csv(bom).strokes), np.asarray(read_csv(csv_path).strokes))
+    np.testing.assert_array_equal(np.asarray(read_csv(bom).readings), np.asarray(read_csv(csv_path).readings))
 
 
 # ---- fuzz: random corruptions of valid CSV and geometry files ---------------------------------
@@ -235,7 +235,7 @@ def test_fuzzed_files_give_a_clean_error_or_a_correct_result(measured, tmp_path)
         except ValueError:
             outcomes["error"] += 1
             continue
-        assert np.all(np.isfinite(np.asarray(d.strokes))) and np.all(np.isfinite(np.asarray(d.poses)))
+        assert np.all(np.isfinite(np.asarray(d.readings))) and np.all(np.isfinite(np.asarray(d.poses)))
         outcomes["ok"] += 1
     for k in range(150):
         path = tmp_path / f"g{k}.json"

@@ -89,7 +89,7 @@ def test_presets_are_the_published_geometry():
     np.testing.assert_allclose(np.linalg.norm(fast.platform[0] - fast.platform[1]), 256.0, rtol=1e-14)  # |P1P2|
     for name in UPS_PRESETS:  # every reading is 0 at the zero pose, exactly
         m = preset(name)
-        np.testing.assert_array_equal(m.solve_inverse_kinematics(jnp.zeros(6)).strokes, 0.0)
+        np.testing.assert_array_equal(m.solve_inverse_kinematics(jnp.zeros(6)).readings, 0.0)
         assert m.n_params == 42 and m.param_names[0] == "platform1x" and m.param_names[-1] == "lengths0_6"
 
 
@@ -100,12 +100,12 @@ def test_presets_are_the_published_geometry():
 def test_inverse_kinematics_matches_numpy(name):
     m = preset(name)
     poses = in_travel(m, 10, 64)
-    ours = np.asarray(m.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    ours = np.asarray(m.solve_inverse_kinematics(jnp.asarray(poses)).readings)
     np.testing.assert_allclose(ours, np_readings(m, poses), rtol=0, atol=1e-9)
     # a calibrated mechanism: lengths0 no longer the zero-pose lengths
     rng = np.random.default_rng(11)
     other = m.with_params(m.params + jnp.asarray(rng.normal(0, 0.5, 42)))
-    ours = np.asarray(other.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    ours = np.asarray(other.solve_inverse_kinematics(jnp.asarray(poses)).readings)
     np.testing.assert_allclose(ours, np_readings(other, poses), rtol=0, atol=1e-9)
 
 
@@ -119,7 +119,7 @@ def test_small_readings_keep_full_precision():
     for k in range(3):
         d = np.zeros(6)
         d[k] = 1e-6
-        q = np.asarray(m.solve_inverse_kinematics(jnp.asarray(d)).strokes)
+        q = np.asarray(m.solve_inverse_kinematics(jnp.asarray(d)).readings)
         expected = 1e-6 * u[:, k] + (1e-12 - (1e-6 * u[:, k]) ** 2) / (2 * length)
         np.testing.assert_allclose(q, expected, rtol=1e-13, atol=0)
 
@@ -179,7 +179,7 @@ def test_stroke_limit_is_reported_and_raised():
         ok[k, k] = cam.travel_half_widths[k]
     sol = cam.solve_inverse_kinematics(jnp.asarray(ok))
     assert bool(np.all(sol.reachable))
-    q = np.asarray(sol.strokes)
+    q = np.asarray(sol.readings)
     np.testing.assert_allclose(np.asarray(sol.margin), np.minimum(q + 14.1, 14.1 - q), rtol=0, atol=1e-12)
     np.testing.assert_array_equal(cam.solve_inverse_kinematics(jnp.zeros(6)).margin, 14.1)
     far = np.array([0.0, 0.0, 20.0, 0.0, 0.0, 0.0])  # dz = 20 mm: axial readings ≈ 16 mm > 14.1
@@ -190,7 +190,7 @@ def test_stroke_limit_is_reported_and_raised():
     # asymmetric per-strut limits
     lims = [(-5.0, 1.0)] * 5 + [(-5.0, 50.0)]
     m = UPSMechanism(cam.base, cam.platform, cam.v0, stroke_limits=lims)
-    q = np.asarray(m.solve_inverse_kinematics(jnp.asarray(far)).strokes)
+    q = np.asarray(m.solve_inverse_kinematics(jnp.asarray(far)).readings)
     margin = np.asarray(m.solve_inverse_kinematics(jnp.asarray(far)).margin)
     np.testing.assert_allclose(margin, np.minimum(q + 5.0, np.array([1.0] * 5 + [50.0]) - q), rtol=0, atol=1e-12)
 
@@ -320,7 +320,7 @@ def test_genhexkins_export_reproduces_our_strut_lengths(name):
     np.testing.assert_array_equal(l0, m.lengths0)
     np.testing.assert_array_equal(v0, m.v0)
     poses = in_travel(m, 18, 16)
-    ours = np.asarray(m.lengths0 + m.solve_inverse_kinematics(jnp.asarray(poses)).strokes)
+    ours = np.asarray(m.lengths0 + m.solve_inverse_kinematics(jnp.asarray(poses)).readings)
     for p, length in zip(poses, ours, strict=True):
         # genhexkins: |R·a + pos − b| with pos the platform origin in world, A B C in degrees
         pos, abc = p[:3] + v0, np.rad2deg(p[3:])

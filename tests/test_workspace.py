@@ -170,7 +170,7 @@ def test_rubin_camera_x_is_limited_by_stroke():
     for i in (0, 1):  # +x, −x
         assert not bool(r.hit_max[i])
         leg = int(r.binding_leg[i])
-        q = float(r.strokes[i, leg])
+        q = float(r.readings[i, leg])
         assert min(abs(q - lo_lim), abs(q - hi_lim)) < 1e-6, q
         # the same reading from the strut ends, independently of the library's kinematics
         pose_x = float(r.extent[i]) * (1.0 if i == 0 else -1.0)

@@ -148,7 +148,7 @@ def assess_calibration(
     m, n = poses.shape[0], calibrated.n_params
     warnings: list[str] = []
     snap = kinematic_snapshot(calibrated, poses, sigma_um, sigma_arcsec)
-    residuals = np.asarray(data.strokes) - snap.readings
+    residuals = np.asarray(data.readings) - snap.readings
     bad = np.flatnonzero(~np.all(np.isfinite(residuals), axis=1)).tolist()
     dups = duplicate_rows(poses)
     if dups:
@@ -293,13 +293,13 @@ def implied_pose_errors(mechanism: AbstractMechanism, data: CalibrationData) -> 
     from .._units import error_in_report_units
 
     return np.asarray(error_in_report_units(_implied_pose_errors(mechanism, jnp.asarray(data.poses),
-                                                                 jnp.asarray(data.strokes))))
+                                                                 jnp.asarray(data.readings))))
 
 
 @eqx.filter_jit
 def _implied_pose_errors(mechanism, poses, readings):
-    strokes, _, jac = ik_and_jacobian(mechanism, poses)
-    return jnp.linalg.solve(jac, (readings - strokes)[..., None])[..., 0]
+    predicted, _, jac = ik_and_jacobian(mechanism, poses)
+    return jnp.linalg.solve(jac, (readings - predicted)[..., None])[..., 0]
 
 
 def _gls_chi2(snap: KinematicSnapshot, residuals, rank) -> tuple[float, float]:

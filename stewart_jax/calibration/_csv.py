@@ -43,7 +43,7 @@ def write_csv(
     ``extra`` adds columns
     (e.g. the true poses of a simulation), each an array of length m or shape (m, k) with
     names given as ``name`` or a tuple of k names via a mapping key ``"a,b,c"``."""
-    q = np.asarray(data.strokes, dtype=np.float64)
+    q = np.asarray(data.readings, dtype=np.float64)
     p = np.asarray(data.poses, dtype=np.float64)
     cols: dict[str, np.ndarray | list[str]] = {}
     angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"

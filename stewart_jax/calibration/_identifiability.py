@@ -92,7 +92,7 @@ def _kinematic_snapshot(geometry, poses, sigma_um, sigma_arcsec):
     sol = geometry.solve_inverse_kinematics(poses)
     jp = ik_and_jacobian(geometry, poses)[2]
     cov = jp @ pose_noise_covariance(sigma_um, sigma_arcsec) @ jnp.swapaxes(jp, -1, -2)
-    return sol.strokes, sol.reachable, cov, identification_jacobian(geometry, poses), jp
+    return sol.readings, sol.reachable, cov, identification_jacobian(geometry, poses), jp
 
 
 class IdentifiabilityReport(NamedTuple):

@@ -78,7 +78,7 @@ class TrackerTargets(NamedTuple):
 class PointData(NamedTuple):
     """Tracker measurements of ``m`` poses (mm, tracker frame, its head at the origin).
 
-    - ``pose_names``: ``m`` labels (the file's ``pose`` column); ``strokes``: ``Float[ndarray, "m 6"]``.
+    - ``pose_names``: ``m`` labels (the file's ``pose`` column); ``readings``: ``Float[ndarray, "m 6"]``.
     - ``pose_index``, ``target_index``: ``Int[ndarray, "n"]``, each platform measurement's pose and
       target (index into :attr:`TrackerTargets.platform`); ``points``: ``Float[ndarray, "n 3"]``.
     - ``reference_index``: ``Int[ndarray, "r"]`` (into :attr:`TrackerTargets.base`);
@@ -89,7 +89,7 @@ class PointData(NamedTuple):
     """
 
     pose_names: tuple[str, ...]
-    strokes: np.ndarray
+    readings: np.ndarray
     pose_index: np.ndarray
     target_index: np.ndarray
     points: np.ndarray
@@ -146,18 +146,18 @@ def _reached_poses(mechanism: AbstractMechanism):
     """``P(u) = FK(q, u)`` from fixed starts, with the implicit-function derivative in ``u``."""
 
     def ik(u, poses):
-        return mechanism.with_params(u).solve_inverse_kinematics(poses).strokes
+        return mechanism.with_params(u).solve_inverse_kinematics(poses).readings
 
     @jax.custom_jvp
-    def reached(u, strokes, start):
-        sol = forward_kinematics(mechanism.with_params(u), strokes, start)
+    def reached(u, readings, start):
+        sol = forward_kinematics(mechanism.with_params(u), readings, start)
         return jnp.where(sol.converged[:, None], sol.poses, jnp.nan)
 
     @reached.defjvp
     def _jvp(primals, tangents):
-        u, strokes, start = primals
+        u, readings, start = primals
         du, dq, _ = tangents
-        poses = reached(u, strokes, start)
+        poses = reached(u, readings, start)
         jp = jax.vmap(jax.jacfwd(lambda p: ik(u, p[None])[0]))(poses)  # (m, 6, 6) ∂IK/∂P
         _, dik = jax.jvp(lambda v: ik(v, poses), (u,), (du,))
         return poses, jnp.linalg.solve(jp, (dq - dik)[..., None])[..., 0]
@@ -168,7 +168,7 @@ def _reached_poses(mechanism: AbstractMechanism):
 class _PointProblem(eqx.Module):
     """The whitened residual of ``y = [u (n), registration correction (6)]`` (see the module docstring)."""
 
-    strokes: Float[Array, "m 6"]
+    readings: Float[Array, "m 6"]
     start: Float[Array, "m 6"]
     pose_index: Int[Array, " n"]
     body: Float[Array, "n 3"]
@@ -188,7 +188,7 @@ class _PointProblem(eqx.Module):
         """Predicted platform points, reference points (tracker frame, mm) and reached poses."""
         n = mechanism.n_params
         rot, t = self.registration(y)
-        poses = _reached_poses(mechanism)(y[:n], self.strokes, self.start)
+        poses = _reached_poses(mechanism)(y[:n], self.readings, self.start)
         p = poses[self.pose_index]
         in_b = jnp.einsum("nij,nj->ni", rotation_matrix(p[:, 3:]), self.body) + p[:, :3] + mechanism.v0
         return in_b @ rot.T + t, self.ref_body @ rot.T + t, poses
@@ -199,7 +199,7 @@ class _PointProblem(eqx.Module):
         n = mechanism.n_params
         u, reg = y[:n], y[n:]
         m = mechanism.with_params(u)
-        poses = _reached_poses(mechanism)(u, self.strokes, self.start)
+        poses = _reached_poses(mechanism)(u, self.readings, self.start)
         _, _, jp = m.ik_and_jacobian(poses)  # (m, 6, 6)
         ju = m.parameter_jacobian(poses).reshape(poses.shape[0], 6, n)
         dpose_du = -jnp.linalg.solve(jp, ju)  # (m, 6, n)
@@ -234,7 +234,7 @@ def start_values(data: PointData, targets: TrackerTargets, nominal: AbstractMech
 
     Returns ``(rot0, t0, poses (m, 6), fitted (m,) bool)``."""
     rot0, t0 = _kabsch(targets.base[data.reference_index], data.references)
-    fk = forward_kinematics(nominal, jnp.asarray(data.strokes))
+    fk = forward_kinematics(nominal, jnp.asarray(data.readings))
     rigid, fitted = rigid_poses(data, targets, rot0, t0, np.asarray(nominal.v0))
     poses = np.where(fitted[:, None], rigid, np.asarray(fk.poses))
     return rot0, t0, poses, fitted
@@ -339,7 +339,7 @@ def _problem(data, targets, nominal, range_um, across_um_per_m, starts) -> _Poin
     m = -(-data.n_poses // _PAD_POSES) * _PAD_POSES
     f = jnp.asarray
     return _PointProblem(
-        strokes=f(_padded(data.strokes, m)), start=f(_padded(poses, m)),
+        readings=f(_padded(data.readings, m)), start=f(_padded(poses, m)),
         pose_index=f(_padded(data.pose_index, n_pts)),
         body=f(_padded(targets.platform[data.target_index], n_pts)), points=f(_padded(data.points, n_pts)),
         w_points=f(_padded(tracker_whitening(data.points, range_um, across_um_per_m), n_pts)),
@@ -473,5 +473,5 @@ def implied_point_pose_errors(
 
     rigid, fitted = rigid_poses(data, targets, np.asarray(rotation), np.asarray(translation),
                                 np.asarray(mechanism.v0))
-    fk = forward_kinematics(mechanism, jnp.asarray(data.strokes[fitted]), jnp.asarray(rigid[fitted]))
+    fk = forward_kinematics(mechanism, jnp.asarray(data.readings[fitted]), jnp.asarray(rigid[fitted]))
     return np.asarray(error_in_report_units(np.asarray(fk.poses) - rigid[fitted]))

@@ -157,10 +157,10 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
         if len(rows_j) >= 2:
             _check_millimetres(path, pts_a[rows_j], targets.platform[tidx_a[rows_j]],
                                [point_lines[i] for i in rows_j])
-    strokes = np.stack([pose_rows[p][1] for p in pose_names])
+    readings = np.stack([pose_rows[p][1] for p in pose_names])
     cond = np.stack([pose_rows[p][2] for p in pose_names])
     k = len(dirs)
-    return PointData(tuple(pose_names), strokes, pidx_a, tidx_a, pts_a, ridx_a, refs_a,
+    return PointData(tuple(pose_names), readings, pidx_a, tidx_a, pts_a, ridx_a, refs_a,
                      directions=cond[:, :6] if dirs else None,
                      temperature=cond[:, k] if "temperature" in conditions else None,
                      time=cond[:, conditions.index("time")] if "time" in conditions else None)
@@ -192,7 +192,7 @@ def write_points_csv(
                               + [""] * len(extra_names)))
     for j, k, p in zip(data.pose_index, data.target_index, data.points, strict=True):
         lines.append(",".join([data.pose_names[j], targets.platform_names[k]]
-                              + [reading(x) for x in data.strokes[j]] + [repr(float(x)) for x in p]
+                              + [reading(x) for x in data.readings[j]] + [repr(float(x)) for x in p]
                               + [repr(float(x)) for x in per_pose[j]]))
     write_text_atomic(path, "\n".join(lines) + "\n")
 

@@ -79,7 +79,7 @@ def simulate_points(
     if not 0 < visible <= 1:
         raise ValueError(f"visible must be a probability in (0, 1], got {visible}")
     rot, t = default_registration(nominal) if registration is None else registration
-    q = np.asarray(nominal.solve_inverse_kinematics(jnp.asarray(commanded)).strokes)
+    q = np.asarray(nominal.solve_inverse_kinematics(jnp.asarray(commanded)).readings)
     fk = forward_kinematics(true, jnp.asarray(q), jnp.asarray(commanded))
     if not np.all(np.asarray(fk.converged)):
         raise ValueError("forward kinematics of the true mechanism failed at a commanded pose")

@@ -35,7 +35,7 @@ from ..mechanism._kinematics import forward_kinematics
 class CalibrationData(NamedTuple):
     """Measured data of ``m`` poses (Wang et al. 2018, eqs. 7–8; the measurement CSV's columns).
 
-    - ``strokes``: ``Float[Array, "m 6"]``, measured actuator readings ``q'`` (the mechanism's
+    - ``readings``: ``Float[Array, "m 6"]``, measured actuator readings ``q'`` (the mechanism's
       reading unit: mm for a stroke, rad for a crank angle).
     - ``poses``: ``Float[Array, "m 6"]``, measured poses ``P'_a`` (mm, rad).
     - ``directions``: ``Float[Array, "m 6"] | None``, approach direction (+1/−1) per slider.
@@ -43,7 +43,7 @@ class CalibrationData(NamedTuple):
     - ``time``: ``Float[Array, "m"] | None``, s since the start of the run.
     """
 
-    strokes: Float[Array, "m 6"]
+    readings: Float[Array, "m 6"]
     poses: Float[Array, "m 6"]
     directions: Float[Array, "m 6"] | None = None
     temperature: Float[Array, " m"] | None = None
@@ -54,7 +54,7 @@ class CalibrationData(NamedTuple):
 
     @property
     def n_poses(self) -> int:
-        return self.strokes.shape[-2]
+        return self.readings.shape[-2]
 
     def take(self, index: ArrayLike) -> CalibrationData:
         """The rows ``index`` of every field (e.g. a train/test split)."""
@@ -67,17 +67,17 @@ class CalibrationData(NamedTuple):
 
 
 def make_calibration_data(
-    strokes: ArrayLike,
+    readings: ArrayLike,
     poses: ArrayLike,
     directions: ArrayLike | None = None,
     temperature: ArrayLike | None = None,
     time: ArrayLike | None = None,
 ) -> CalibrationData:
     """Validated :class:`CalibrationData` (shapes, finiteness, angles in radians)."""
-    q = check_array(strokes, "strokes", last_dim=6)
+    q = check_array(readings, "readings", last_dim=6)
     p = check_poses(poses, "poses")
     if q.shape != p.shape:
-        raise ValueError(f"strokes {q.shape} and poses {p.shape} must have the same shape (m, 6)")
+        raise ValueError(f"readings {q.shape} and poses {p.shape} must have the same shape (m, 6)")
     m = q.shape[0]
     extras = []
     for name, x, shape in (("directions", directions, (m, 6)), ("temperature", temperature, (m,)),
@@ -110,7 +110,7 @@ def stroke_residuals(
     reports such a vector as +inf.
     """
     sol = mechanism.with_params(params).solve_inverse_kinematics(data.poses)
-    return (data.strokes - sol.strokes).reshape(-1)
+    return (data.readings - sol.readings).reshape(-1)
 
 
 stroke_residuals_compiled = eqx.filter_jit(stroke_residuals)
@@ -124,7 +124,7 @@ def calibration_cost(
     """``S(u) = Σ_j Σ_i e_ij²`` (eq. 9), the reading unit squared (mm²); +inf where a measured pose is unreachable
     under ``u`` or the value is not finite (so that optimisers reject it)."""
     sol = mechanism.with_params(params).solve_inverse_kinematics(data.poses)
-    s = jnp.sum((data.strokes - sol.strokes) ** 2)
+    s = jnp.sum((data.readings - sol.readings) ** 2)
     ok = jnp.all(sol.reachable) & jnp.isfinite(s)
     return jnp.where(ok, s, jnp.inf)
 
@@ -159,7 +159,7 @@ class CalibrationProblem(eqx.Module):
         if self.weights is None:
             return calibration_cost(params, self.data, self.mechanism)
         sol = self.mechanism.with_params(params).solve_inverse_kinematics(self.data.poses)
-        s = jnp.sum(((self.data.strokes - sol.strokes) * self.weights[:, None]) ** 2)
+        s = jnp.sum(((self.data.readings - sol.readings) * self.weights[:, None]) ** 2)
         ok = jnp.all(sol.reachable | (self.weights == 0)) & jnp.isfinite(s)
         return jnp.where(ok, s, jnp.inf)
 
@@ -171,7 +171,7 @@ class CalibrationProblem(eqx.Module):
         A population optimiser that vmaps :func:`population_objective` gets it."""
         if self.weights is not None:
             return jax.vmap(self.cost)(params)
-        sse, ok = self.mechanism.population_squared_residuals(params, self.data.poses, self.data.strokes)
+        sse, ok = self.mechanism.population_squared_residuals(params, self.data.poses, self.data.readings)
         return jnp.where(ok & jnp.isfinite(sse), sse, jnp.inf)
 
     def calibrated(self, params: Float[Array, " n"]) -> AbstractMechanism:
@@ -285,7 +285,7 @@ def control_error(
     """Command each target with the calibrated model, ``q = IK(P, u_cal)``, move the true
     mechanism, ``FK(q, u_true)``, and return the pose error (Wang et al. 2018, §3)."""
     q = calibrated.solve_inverse_kinematics(targets)
-    fk = forward_kinematics(true, q.strokes, targets)
+    fk = forward_kinematics(true, q.readings, targets)
     return ControlError(fk.poses - targets, fk.converged & q.reachable)
 
 

@@ -1,7 +1,7 @@
 """Simulated measurements for the calibration study and the sampling plan.
 
 Wang H., Cao X. et al., Infrared and Laser Engineering 47(5), 2018: §3 (simulation
-protocol: 8 random target poses, strokes from the nominal model, actual pose from the true
+protocol: 8 random target poses, readings from the nominal model, actual pose from the true
 model, Gaussian pose noise), §4 (travel ±1 mm / ±1°, the 120-pose sampling plan of Fig. 5 and
 Table 3, 42 validation poses, a laser tracker with 3 µm error seeing 3 target balls).
 The paper's pose noise "±0.1 µm, ±0.1°" is read as Gaussian σ = 0.1 µm and σ = 0.1″ (0.1° is
@@ -205,7 +205,7 @@ def tracker_measure(
 class SimulatedMeasurement(NamedTuple):
     """A simulated calibration run (Wang et al. 2018, §3).
 
-    - ``data``: :class:`CalibrationData`, commanded strokes and measured poses.
+    - ``data``: :class:`CalibrationData`, commanded readings and measured poses.
     - ``targets``: ``Float[Array, "m 6"]``, the commanded target poses ``P0``.
     - ``true_poses``: ``Float[Array, "m 6"]``, the poses the true mechanism reached ``Pa``.
     - ``converged``: ``Bool[Array, "m"]``, forward kinematics of the true mechanism converged.
@@ -233,7 +233,7 @@ def simulate_measurements(
     angle (our reading of the paper's "±0.1 µm, ±0.1°"). With a ``tracker`` the pose is
     instead measured through it (3 balls, rigid fit) and the two sigmas are not used.
     """
-    q = solve_inverse_kinematics(nominal, targets).strokes
+    q = solve_inverse_kinematics(nominal, targets).readings
     fk = forward_kinematics(actual, q, targets)
     pa = fk.poses
     if tracker is None:

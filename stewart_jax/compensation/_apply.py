@@ -63,7 +63,7 @@ def poses_to_offsets(poses: ArrayLike) -> Float[Array, "... 6"]:
 def _strut_solution(mechanism: AbstractMechanism, offsets: Float[Array, "n 6"]):
     sol = mechanism.solve_inverse_kinematics(offsets_to_poses(offsets))
     zero = mechanism.solve_inverse_kinematics(jnp.zeros(6))
-    return (sol.strokes - zero.strokes) * 1e3, sol.margin, sol.reachable
+    return (sol.readings - zero.readings) * 1e3, sol.margin, sol.reachable
 
 
 def strut_changes(mechanism: AbstractMechanism, offsets: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -39,7 +39,7 @@ def points_campaign(data: PointData, targets: TrackerTargets, mechanism: Abstrac
     the correction = commanded − measured position (µm, deg). Poses with fewer than three
     targets seen cannot give a pose and are left out; their names are returned."""
     _, _, poses, fitted = start_values(data, targets, mechanism)
-    fk = forward_kinematics(mechanism, jnp.asarray(data.strokes))
+    fk = forward_kinematics(mechanism, jnp.asarray(data.readings))
     ok = fitted & np.asarray(fk.converged)
     if not ok.any():
         raise ValueError("no pose of the points campaign has three targets seen (and converged forward "
@@ -128,6 +128,6 @@ def points_campaign_csv(data: PointData, targets: TrackerTargets, attitudes: dic
                               + [""] * len(cols)))
     for j, k, p in zip(data.pose_index, data.target_index, data.points, strict=True):
         lines.append(",".join([data.pose_names[j], targets.platform_names[k]]
-                              + [repr(float(x)) for x in data.strokes[j]] + [repr(float(x)) for x in p]
+                              + [repr(float(x)) for x in data.readings[j]] + [repr(float(x)) for x in p]
                               + [repr(float(attitudes[c][j])) for c in cols]))
     return "\n".join(lines) + "\n"

@@ -60,9 +60,11 @@ class Conditions:
     temperature: np.ndarray
     time: np.ndarray
 
-    def data(self, poses: Float[np.ndarray, "m 6"], strokes: Float[np.ndarray, "m 6"] | None = None) -> CalibrationData:
-        """:class:`CalibrationData` with these conditions (strokes 0 unless given)."""
-        q = np.zeros_like(np.asarray(poses, dtype=float)) if strokes is None else strokes
+    def data(
+        self, poses: Float[np.ndarray, "m 6"], readings: Float[np.ndarray, "m 6"] | None = None
+    ) -> CalibrationData:
+        """:class:`CalibrationData` with these conditions (readings 0 unless given)."""
+        q = np.zeros_like(np.asarray(poses, dtype=float)) if readings is None else readings
         return make_calibration_data(q, poses, self.directions, self.temperature, self.time)
 
 

@@ -82,7 +82,7 @@ NEWTON_STEPS = 5
 class PointRows(NamedTuple):
     """Tracker points as rows of the discrepancy workflow; ``n`` measured points.
 
-    - ``strokes``: ``Float[Array, "n 6"]``, the readings of each point's pose (mm; rad for a
+    - ``readings``: ``Float[Array, "n 6"]``, the readings of each point's pose (mm; rad for a
       crank).
     - ``poses``: ``Float[Array, "n 6"]``, the starting pose of the forward kinematics (mm, rad).
     - ``body``: ``Float[Array, "n 3"]``, the target's nominal coordinates in A (mm).
@@ -94,7 +94,7 @@ class PointRows(NamedTuple):
       or ``None``.
     """
 
-    strokes: Float[Array, "n 6"]
+    readings: Float[Array, "n 6"]
     poses: Float[Array, "n 6"]
     body: Float[Array, "n 3"]
     points: Float[Array, "n 3"]
@@ -107,7 +107,7 @@ class PointRows(NamedTuple):
 
     @property
     def n_poses(self) -> int:
-        return int(self.strokes.shape[0])
+        return int(self.readings.shape[0])
 
     def take(self, index) -> PointRows:
         idx = np.asarray(index)
@@ -187,7 +187,7 @@ class PointsModel(AbstractDiscrepancyModel):
         inverse = _inverse(jac)  # (n, reading, pose component) → (n, component, reading)
 
         def chord(poses, _):
-            return poses - jnp.einsum("nij,nj->ni", inverse, readings(poses) - data.strokes), None
+            return poses - jnp.einsum("nij,nj->ni", inverse, readings(poses) - data.readings), None
 
         poses, _ = jax.lax.scan(chord, start, None, length=NEWTON_STEPS)
         in_b = jnp.einsum("nij,nj->ni", rotation_matrix(poses[:, 3:]), state.body) + poses[:, :3] + self.v0
@@ -200,7 +200,7 @@ class PointsModel(AbstractDiscrepancyModel):
         return frozenset(c for c in CONDITION_NAMES if getattr(data, c) is not None)
 
     def n_rows(self, data: PointRows) -> int:
-        return int(data.strokes.shape[0])
+        return int(data.readings.shape[0])
 
     def take(self, data: PointRows, index) -> PointRows:
         return data.take(index)
@@ -268,8 +268,8 @@ def _register_effects(inner_name: str) -> None:
 
 
 @eqx.filter_jit
-def _forward(mechanism, strokes, start):
-    fk = forward_kinematics(mechanism, strokes, start)
+def _forward(mechanism, readings, start):
+    fk = forward_kinematics(mechanism, readings, start)
     return fk.poses, fk.converged
 
 
@@ -287,7 +287,7 @@ def point_rows(
     targets or more were seen); a pose where it fails is an error
     naming it."""
     rot, t, start, _ = start_values(data, targets, mechanism)
-    poses, ok = _forward(mechanism, jnp.asarray(data.strokes), jnp.asarray(start))
+    poses, ok = _forward(mechanism, jnp.asarray(data.readings), jnp.asarray(start))
     if not np.all(np.asarray(ok)):
         bad = [data.pose_names[j] for j in np.flatnonzero(~np.asarray(ok))]
         raise ValueError(f"forward kinematics of the starting geometry fails at pose(s) {bad[:8]}: readings outside "
@@ -298,7 +298,7 @@ def point_rows(
         return None if x is None else jnp.asarray(np.asarray(x, dtype=np.float64)[j])
 
     rows = PointRows(
-        strokes=per_point(data.strokes), poses=per_point(np.asarray(poses)),
+        readings=per_point(data.readings), poses=per_point(np.asarray(poses)),
         body=jnp.asarray(targets.platform[data.target_index]), points=jnp.asarray(data.points),
         whitening=jnp.asarray(tracker_whitening(data.points, range_um, across_um_per_m)),
         pose=jnp.asarray(j), target=jnp.asarray(data.target_index),

@@ -51,7 +51,7 @@ class AbstractPoseNoiseModel(AbstractDiscrepancyModel):
         """``∂q/∂P`` of the base model at each pose."""
 
     def observed(self, data: CalibrationData) -> Float[Array, "m 6"]:
-        return data.strokes
+        return data.readings
 
     def noise_covariance(self, base: Float[Array, " p"], data: CalibrationData) -> Float[Array, "m 6 6"]:
         """``J Σ_P Jᵀ + σ_q² I`` per pose (the reading unit squared)."""
@@ -164,6 +164,6 @@ class AbstractMechanismModel(AbstractPoseNoiseModel):
     def factors(self, data: CalibrationData) -> dict[str, np.ndarray]:
         """Per leg: its own reading (µm or µrad) and approach direction; per pose: the six pose
         components (µm and ″), temperature and time."""
-        q = np.asarray(data.strokes)
+        q = np.asarray(data.readings)
         q = q / UM if self.mechanism.reading_unit == "mm" else q * self.report_factor
         return {self.reading_factor_name(): q, **self.pose_factors(data)}

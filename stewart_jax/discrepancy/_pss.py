@@ -68,7 +68,7 @@ def pss_strokes(
     ``|a_i − Bc_i − q·n_i| = L_i`` with the slider below the upper joint — the mechanism's own
     generalised leg (:func:`~stewart_jax.mechanism._pss.slider_leg`, cancellation-free, exactly 0
     at the zero pose, Wang et al. (2018) eq. 4 for ``n = e_z``, ``ΔL = 0``) on poses by legs."""
-    return slider_leg_arrays(poses, upper, upper + v0 - lower, axes, dlength).strokes
+    return slider_leg_arrays(poses, upper, upper + v0 - lower, axes, dlength).readings
 
 
 class PSSModel(AbstractMechanismModel):

@@ -80,7 +80,7 @@ class RUSModel(AbstractMechanismModel):
         return RUSState(data.poses, self.mechanism.with_params(base), ones, 0.0 * ones)
 
     def finish(self, state: RUSState, data: CalibrationData) -> Float[Array, "m 6"]:
-        return state.gain * state.mechanism.solve_inverse_kinematics(state.poses).strokes + state.offset
+        return state.gain * state.mechanism.solve_inverse_kinematics(state.poses).readings + state.offset
 
 
 def rus_model(

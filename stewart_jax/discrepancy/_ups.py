@@ -67,7 +67,7 @@ def ups_readings(state: UPSState) -> Float[Array, "m 6"]:
     ``q = δ·(2e + δ) / (l + |e|) + (|e| − lengths0)``), so a reading of a few mm on a metre-long
     strut keeps full relative precision; ``dlength`` is a small correction added to it."""
     mechanism = UPSMechanism(state.base, state.platform, state.v0, state.lengths0)
-    q = mechanism.solve_inverse_kinematics(state.poses).strokes
+    q = mechanism.solve_inverse_kinematics(state.poses).readings
     return state.gain * (q - state.dlength) + state.offset
 
 
@@ -152,7 +152,7 @@ class UPSModel(AbstractMechanismModel):
         six pose components (µm and ″), temperature and time."""
         mech = self.mechanism
         return {
-            "stroke_um": np.asarray(data.strokes) / UM,
+            "stroke_um": np.asarray(data.readings) / UM,
             "axial_load": np.asarray(_gravity_axial_loads(mech.platform, mech.base, mech.v0, data.poses)),
             **self.pose_factors(data),
         }

@@ -41,7 +41,7 @@ from .._units import per_parameter
 class IKSolution(NamedTuple):
     """Inverse kinematics of poses of batch shape ``...``.
 
-    - ``strokes``: ``Float[Array, "... 6"]``, actuator readings q (the family's
+    - ``readings``: ``Float[Array, "... 6"]``, actuator readings q (the family's
       :attr:`~AbstractMechanism.reading_unit`, mm or rad). Where a leg is unreachable the value is
       finite but meaningless.
     - ``margin``: ``Float[Array, "... 6"]``, per leg a number that is ≥ 0 exactly when the leg can
@@ -50,7 +50,7 @@ class IKSolution(NamedTuple):
     - ``reachable``: ``Bool[Array, "..."]``, every leg's margin is ≥ 0.
     """
 
-    strokes: Float[Array, "... 6"]
+    readings: Float[Array, "... 6"]
     margin: Float[Array, "... 6"]
     reachable: Bool[Array, "..."]
 
@@ -220,11 +220,11 @@ class AbstractMechanism(eqx.Module):
         flat = poses.reshape(-1, 6)
 
         def one(p):
-            return self.solve_inverse_kinematics(p).strokes
+            return self.solve_inverse_kinematics(p).readings
 
         sol = self.solve_inverse_kinematics(poses)
         jac = jax.vmap(jax.jacfwd(one))(flat).reshape(*poses.shape[:-1], 6, 6)
-        return sol.strokes, sol.margin, jac
+        return sol.readings, sol.margin, jac
 
     def population_squared_residuals(
         self, params: Float[Array, "n p"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
@@ -241,7 +241,7 @@ class AbstractMechanism(eqx.Module):
 
         def one(u):
             sol = self.with_params(u).solve_inverse_kinematics(poses)
-            return jnp.sum((readings - sol.strokes) ** 2), jnp.all(sol.reachable)
+            return jnp.sum((readings - sol.readings) ** 2), jnp.all(sol.reachable)
 
         return jax.vmap(one)(params)
 
@@ -250,7 +250,7 @@ class AbstractMechanism(eqx.Module):
         is leg ``i`` at pose ``j``), forward-mode AD through :meth:`with_params`."""
 
         def readings(u):
-            return self.with_params(u).solve_inverse_kinematics(poses).strokes.reshape(-1)
+            return self.with_params(u).solve_inverse_kinematics(poses).readings.reshape(-1)
 
         return jax.jacfwd(readings)(self.params)
 

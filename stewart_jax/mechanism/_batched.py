@@ -82,14 +82,14 @@ def _rotation_rows(angles, sincos):
 
 def _ik_rows(geometry: PSSMechanism, poses_soa, sincos):
     """Eq. 4 leg by leg on rows (the mechanism's own leg, :func:`~stewart_jax.mechanism._pss.slider_leg`);
-    returns (strokes, margin) as lists of 6 rows."""
+    returns (readings, margin) as lists of 6 rows."""
     r = _rotation_rows(poses_soa[3:6], sincos)
     t = [r[0:3], r[3:6], r[6:9]]
     d = [poses_soa[0], poses_soa[1], poses_soa[2]]
     upper = geometry.upper
     e = upper + geometry.v0 - geometry.lower
     legs = [slider_leg(t, d, [upper[i, k] for k in range(3)], [e[i, k] for k in range(3)]) for i in range(6)]
-    return [leg.strokes for leg in legs], [leg.margin for leg in legs]
+    return [leg.readings for leg in legs], [leg.margin for leg in legs]
 
 
 def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..."]) -> IKSolution:
@@ -99,7 +99,7 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
     pose, i.e. the transpose ``poses.T`` of the ``(N, 6)`` array that
     :meth:`~stewart_jax.mechanism.PSSMechanism.solve_inverse_kinematics` takes; any trailing batch shape is
     allowed. Returns an :class:`~stewart_jax.mechanism.IKSolution` in the same layout:
-    ``strokes`` and ``margin`` of shape ``(6, *batch)`` (leg first), ``reachable`` of shape
+    ``readings`` and ``margin`` of shape ``(6, *batch)`` (leg first), ``reachable`` of shape
     ``batch``. Pure and jittable; batch over geometries with ``jax.vmap``.
 
     Agrees with :meth:`~stewart_jax.mechanism.PSSMechanism.solve_inverse_kinematics` to ~1e-13 mm (float64
@@ -115,7 +115,7 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
     passed as ``poses.T`` inside the same ``jit`` at no extra cost. For a handful of poses,
     or inside ``jax.jacfwd``/``grad`` of a calibration residual, the plain function is as
     good. Under ``jit``, outputs that are not used are not computed, so
-    ``inverse_kinematics_soa(g, p).strokes`` costs only the strokes.
+    ``inverse_kinematics_soa(g, p).readings`` costs only the readings.
     """
     if not isinstance(geometry, PSSMechanism) or not geometry.is_paper_model:
         raise TypeError("inverse_kinematics_soa is the fast path of Wang et al. (2018)'s 6-PSS (vertical sliders, "
@@ -130,10 +130,10 @@ def inverse_kinematics_soa(geometry: PSSMechanism, poses_soa: Float[Array, "6 ..
 
     def solve(sincos):
         def branch(p):
-            strokes, margins = _ik_rows(geometry, p, sincos)
+            readings, margins = _ik_rows(geometry, p, sincos)
             margin = jnp.stack(margins)
             valid = jnp.all(jnp.isfinite(p), axis=0) & jnp.all(jnp.abs(p[3:]) <= MAX_ANGLE_RAD, axis=0)
-            return IKSolution(jnp.stack(strokes), margin, jnp.all(margin >= 0.0, axis=0) & valid)
+            return IKSolution(jnp.stack(readings), margin, jnp.all(margin >= 0.0, axis=0) & valid)
 
         return branch
 
@@ -176,7 +176,7 @@ def inverse_kinematics_sharded(
         out_specs=IKSolution(rows, rows, cols),
     )(geometry, poses_soa)
     if pad:
-        sol = IKSolution(sol.strokes[:, :n], sol.margin[:, :n], sol.reachable[:n])
+        sol = IKSolution(sol.readings[:, :n], sol.margin[:, :n], sol.reachable[:n])
     return sol
 
 
@@ -207,30 +207,30 @@ def _solve_near_identity(a, b):
 
 
 def _fk_newton(geometry: AbstractMechanism, q, p0, steps: int, tol: float):
-    """Fixed-step Newton for strokes ``q`` (n, 6) from poses ``p0`` (n, 6)."""
+    """Fixed-step Newton for readings ``q`` (n, 6) from poses ``p0`` (n, 6)."""
     jac0 = ik_and_jacobian(geometry, jnp.zeros(6, q.dtype))[2]
     # Precondition by the zero-pose Jacobian: J0⁻¹·J stays near I over the travel, so the
     # unpivoted elimination is stable and needs no pivot search (selects) per pose.
     j0inv = jnp.linalg.inv(jac0)
 
     def step(_, p):
-        strokes, _, jac = ik_and_jacobian(geometry, p)
+        readings, _, jac = ik_and_jacobian(geometry, p)
         m = j0inv @ jac
-        rhs = (strokes - q) @ j0inv.T
+        rhs = (readings - q) @ j0inv.T
         x = _solve_near_identity(
             [[m[..., i, j] for j in range(6)] for i in range(6)], [rhs[..., i] for i in range(6)]
         )
         return p - jnp.stack(x, axis=-1)
 
     p = jax.lax.fori_loop(0, steps, step, p0)
-    strokes, margin, _ = ik_and_jacobian(geometry, p)
-    res = jnp.max(jnp.abs(strokes - q), axis=-1)
+    readings, margin, _ = ik_and_jacobian(geometry, p)
+    res = jnp.max(jnp.abs(readings - q), axis=-1)
     return p, res, (res <= tol) & jnp.all(margin >= 0.0, axis=-1)
 
 
 def forward_kinematics_newton(
     geometry: AbstractMechanism,
-    strokes: ArrayLike,
+    readings: ArrayLike,
     initial_pose: ArrayLike | None = None,
     *,
     steps: int = 4,
@@ -239,7 +239,7 @@ def forward_kinematics_newton(
 ) -> FKSolution:
     """Forward kinematics by a fixed number of full Newton steps: the fast batched path.
 
-    Same problem and result type as :func:`~stewart_jax.forward_kinematics` (strokes
+    Same problem and result type as :func:`~stewart_jax.forward_kinematics` (readings
     ``(..., 6)`` in mm → :class:`~stewart_jax.mechanism.FKSolution`), solved differently: exactly
     ``steps`` Newton steps from ``initial_pose`` (default the zero pose) with the analytic
     6×6 Jacobian, no line search and no data-dependent loop, then one residual evaluation.
@@ -253,7 +253,7 @@ def forward_kinematics_newton(
     is the robust fallback for those poses. The batch is processed ``chunk_size`` poses at
     a time (``lax.map``) so that the intermediates stay in cache.
     """
-    q = check_array(strokes, "strokes", last_dim=6)
+    q = check_array(readings, "readings", last_dim=6)
     p0 = jnp.zeros(6) if initial_pose is None else check_poses(initial_pose)
     return _fk_newton_jit(geometry, q, p0, steps, tol, chunk_size)
 

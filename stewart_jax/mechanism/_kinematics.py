@@ -61,7 +61,7 @@ def inverse_kinematics(mechanism: AbstractMechanism, poses: ArrayLike) -> Float[
     sol = solve_inverse_kinematics(mechanism, poses)
     if isinstance(poses, jax.core.Tracer) or _is_traced(mechanism):
         return eqx.error_if(
-            sol.strokes,
+            sol.readings,
             ~sol.reachable[..., None],
             "inverse_kinematics: unreachable pose (a leg cannot be assembled) or an invalid one (NaN, or an "
             "angle beyond 0.5 rad: degrees given for radians?)",
@@ -74,7 +74,7 @@ def inverse_kinematics(mechanism: AbstractMechanism, poses: ArrayLike) -> Float[
             f"inverse_kinematics: {len(bad)} unreachable pose(s), first at index {first}: "
             f"{np.asarray(poses)[first].tolist()} (mm, rad); a leg cannot be assembled there"
         )
-    return sol.strokes
+    return sol.readings
 
 
 def kinematic_jacobian(mechanism: AbstractMechanism, pose: Float[Array, "... 6"]) -> Float[Array, "... 6 6"]:
@@ -83,7 +83,7 @@ def kinematic_jacobian(mechanism: AbstractMechanism, pose: Float[Array, "... 6"]
 
 
 class FKSolution(NamedTuple):
-    """Result of :func:`forward_kinematics` for strokes of batch shape ``...``.
+    """Result of :func:`forward_kinematics` for readings of batch shape ``...``.
 
     - ``poses``: ``Float[Array, "... 6"]``, the pose (mm, rad); the last iterate where the
       solve failed.
@@ -102,7 +102,7 @@ class FKSolution(NamedTuple):
 
 def _fk_one(
     mechanism: AbstractMechanism,
-    strokes: Float[Array, "6"],
+    readings: Float[Array, "6"],
     initial_pose: Float[Array, "6"],
     tol: float,
     max_steps: int,
@@ -124,7 +124,7 @@ def _fk_one(
 
     def evaluate(p):
         q, _, jac = mechanism.ik_and_jacobian(p)
-        f = q - strokes
+        f = q - readings
         ok = mechanism.solve_inverse_kinematics(p).reachable & jnp.all(jnp.isfinite(f))
         return f, jnp.where(ok, jnp.max(jnp.abs(f)), jnp.inf), jac
 
@@ -154,7 +154,7 @@ _FK_CHUNK = 128
 
 
 @eqx.filter_jit
-def _fk_batched(mechanism, strokes, initial_poses, tol, max_steps):
+def _fk_batched(mechanism, readings, initial_poses, tol, max_steps):
     """:func:`_fk_one` over every pose, in chunks of ``_FK_CHUNK`` poses.
 
     NOTE: one vmapped ``while_loop`` over all poses keeps every pose's state — its 6 × 6
@@ -165,11 +165,11 @@ def _fk_batched(mechanism, strokes, initial_poses, tol, max_steps):
     32–512 measured, 64–256 within 10 %). Each pose's iterates are the same as alone, up to the
     rounding of differently fused code (≤ 1e-12 mm, the convergence tolerance).
     """
-    flat_q = strokes.reshape(-1, 6)
-    flat_p0 = jnp.broadcast_to(initial_poses, strokes.shape).reshape(-1, 6)
+    flat_q = readings.reshape(-1, 6)
+    flat_p0 = jnp.broadcast_to(initial_poses, readings.shape).reshape(-1, 6)
     sol = jax.lax.map(lambda qp: _fk_one(mechanism, qp[0], qp[1], tol, max_steps), (flat_q, flat_p0),
                       batch_size=_FK_CHUNK)
-    batch = strokes.shape[:-1]
+    batch = readings.shape[:-1]
     return FKSolution(
         sol.poses.reshape(*batch, 6),
         sol.converged.reshape(batch),
@@ -180,31 +180,31 @@ def _fk_batched(mechanism, strokes, initial_poses, tol, max_steps):
 
 def forward_kinematics(
     mechanism: AbstractMechanism,
-    strokes: ArrayLike,
+    readings: ArrayLike,
     initial_pose: ArrayLike | None = None,
     *,
     tol: float = 1e-12,
     max_steps: int = 30,
     throw: bool = False,
 ) -> FKSolution:
-    """Forward kinematics (eqs. 5–6): the pose that produces the readings ``strokes`` (mm, or rad
-    for a rotary family).
+    """Forward kinematics (eqs. 5–6): the pose that produces the actuator readings ``readings``
+    (mm, or rad for a rotary family).
 
-    ``strokes`` may have any leading batch shape; each pose is solved independently by
+    ``readings`` may have any leading batch shape; each pose is solved independently by
     Newton's method (batched with vmap) from ``initial_pose`` (default: the zero pose).
     Per-pose convergence is reported in :class:`FKSolution`; with ``throw=True`` a
     non-converged pose raises instead (``equinox.error_if`` under jit).
 
     ``tol`` (the reading unit) is on ``max |IK(P) − q|``; float64 rounding of eq. 4 is ~1e-15 mm.
     """
-    q = check_array(strokes, "strokes", last_dim=6)
+    q = check_array(readings, "readings", last_dim=6)
     p0 = jnp.zeros(6) if initial_pose is None else check_poses(initial_pose)
     sol = _fk_batched(mechanism, q, p0, tol, max_steps)
     if throw:
         poses = eqx.error_if(
             sol.poses,
             ~sol.converged[..., None],
-            "forward_kinematics: Newton did not converge (strokes outside the workspace?)",
+            "forward_kinematics: Newton did not converge (readings outside the workspace?)",
         )
         sol = sol._replace(poses=poses)
     return sol

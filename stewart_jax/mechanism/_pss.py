@@ -231,7 +231,7 @@ class PSSMechanism(AbstractMechanism):
         ``ΔL = L − |e|``; the margin is ``(n·ℓ)² − c``.
         """
         parts = _ik_parts(self, poses)
-        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
+        return IKSolution(parts.readings, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
         """Strokes, margins (``(..., 6)``) and the analytic Jacobian ``∂q_i/∂P_k`` (``(..., 6, 6)``).
@@ -264,7 +264,7 @@ class PSSMechanism(AbstractMechanism):
             ],
             axis=-1,
         )
-        return parts.strokes, parts.margin, jac
+        return parts.readings, parts.margin, jac
 
     def parameter_jacobian(self, poses: Float[Array, "m 6"]) -> Float[Array, "6m n"]:
         """``∂q/∂u`` (row ``6j + i`` is leg ``i`` at pose ``j``); closed form for the paper's
@@ -335,7 +335,7 @@ class PSSMechanism(AbstractMechanism):
             rod = u[36 + i] if self.param_set != "36" else None if self.lengths is None else self.lengths[i]
             out = slider_leg(t, d, upper, e, None if axes is None else [axes[..., i, k] for k in range(3)],
                              None if rod is None else rod - _length(e))
-            return out.strokes, out.margin
+            return out.readings, out.margin
 
         return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
@@ -376,7 +376,7 @@ class _Leg(NamedTuple):
     growth: list[Array]  # γ = δ(2e + δ), δ = T·Ac_i − Ac_i + d
     margin: Array  # the square-root argument (mm²)
     root: Array  # sqrt(max(margin, 0))
-    strokes: Array
+    readings: Array
 
 
 def slider_leg(t, d, upper, e, axis=None, dlength=None) -> _Leg:
@@ -437,7 +437,7 @@ class _IKParts(NamedTuple):
     axes: Array  # unit slider axes n_i, (..., 6, 3)
     margin: Array  # (..., 6)
     root: Array  # sqrt(max(margin, 0)), (..., 6)
-    strokes: Array  # (..., 6)
+    readings: Array  # (..., 6)
 
 
 def slider_leg_arrays(
@@ -458,7 +458,7 @@ def slider_leg_arrays(
     ell = stack(leg.ell)
     n = jnp.array([0.0, 0.0, 1.0]) if axes is None else axes
     return _IKParts(rot, stack(leg.w), ell, stack(leg.growth), jnp.broadcast_to(n, ell.shape), leg.margin, leg.root,
-                    leg.strokes)
+                    leg.readings)
 
 
 def _ik_parts(geometry: PSSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
@@ -486,7 +486,7 @@ def _general_ik_and_jacobian(geometry: PSSMechanism, poses: Float[Array, "... 6"
     jac = jnp.concatenate(
         [g] + [jnp.sum(g * d, axis=-1, keepdims=True) for d in (d_phi, d_theta, d_psi)], axis=-1
     )
-    return parts.strokes, parts.margin, jac
+    return parts.readings, parts.margin, jac
 
 
 def _frame(n: Float[Array, "6 3"]) -> tuple[Array, Array]:

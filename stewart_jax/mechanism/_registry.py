@@ -155,12 +155,12 @@ def check_geometry(m: AbstractMechanism) -> None:
                 if np.allclose(a, b, rtol=0.0, atol=1e-9 * max(1.0, float(np.max(np.abs(params))))):
                     raise ValueError(f"legs {i + 1} and {j + 1} are the same leg (identical joints "
                                      f"{a.tolist()}): a copy-paste slip? Six distinct legs are needed")
-    strokes, margin, jac = (np.asarray(x) for x in _zero_pose(m, jnp.zeros((1, 6))))
+    readings, margin, jac = (np.asarray(x) for x in _zero_pose(m, jnp.zeros((1, 6))))
     margin, jac = margin[0], jac[0]
     if not np.all(margin >= 0):
         bad = np.flatnonzero(~(margin >= 0))
         raise ValueError(
-            f"the zero pose is not reachable: legs {(bad + 1).tolist()} (readings {strokes[0][bad].tolist()} mm, "
+            f"the zero pose is not reachable: legs {(bad + 1).tolist()} (readings {readings[0][bad].tolist()} mm, "
             f"margins {margin[bad].tolist()}) are outside their limits or cannot be assembled; check the "
             "lengths, the limits and their units (mm, degrees)")
     if not np.all(np.isfinite(jac)):

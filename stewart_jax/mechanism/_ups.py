@@ -176,7 +176,7 @@ class UPSMechanism(AbstractMechanism):
 
     def strut_lengths(self, poses: Float[Array, "... 6"]) -> Float[Array, "... 6"]:
         """Strut lengths ``l_i = lengths0_i + q_i`` (mm) at ``poses``."""
-        return self.lengths0 + _ik_parts(self, poses).strokes
+        return self.lengths0 + _ik_parts(self, poses).readings
 
     def solve_inverse_kinematics(self, poses: Float[Array, "... 6"]) -> IKSolution:
         """Readings ``q_i = l_i − lengths0_i`` (mm), the margin (mm) and reachability; pure and
@@ -189,7 +189,7 @@ class UPSMechanism(AbstractMechanism):
         zero pose when ``lengths0`` is the default.
         """
         parts = _ik_parts(self, poses)
-        return IKSolution(parts.strokes, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
+        return IKSolution(parts.readings, parts.margin, jnp.all(parts.margin >= 0.0, axis=-1) & valid_poses(poses))
 
     def ik_and_jacobian(self, poses: Float[Array, "... 6"]):
         """Readings, margins (``(..., 6)``) and the analytic pose Jacobian ``∂q_i/∂P_k``
@@ -216,7 +216,7 @@ class UPSMechanism(AbstractMechanism):
             ],
             axis=-1,
         )
-        return parts.strokes, parts.margin, jac
+        return parts.readings, parts.margin, jac
 
     def population_squared_residuals(
         self, params: Float[Array, "n 42"], poses: Float[Array, "m 6"], readings: Float[Array, "m 6"]
@@ -238,7 +238,7 @@ class UPSMechanism(AbstractMechanism):
             e = [p[k] + self.v0[k] - u[18 + 3 * i + k] for k in range(3)]  # zero-pose strut
             out = strut_leg(t, tm1, d, p, e, u[36 + i], None if limits is None else limits[i],
                             None if self.joint_angle_limit is None else self.joint_angle_limit[i])
-            return out.strokes, out.margin
+            return out.readings, out.margin
 
         return population_totals(readings, poses, (leg(i) for i in range(N_LEGS)))
 
@@ -323,7 +323,7 @@ class _Strut(NamedTuple):
     tp: list[Array]  # T·platform_i
     strut: list[Array]  # s = T·platform_i + d + v0 − base_i
     length: Array  # l = |s| (mm)
-    strokes: Array  # q = l − lengths0_i (mm)
+    readings: Array  # q = l − lengths0_i (mm)
     margin: Array  # mm
 
 
@@ -373,7 +373,7 @@ class _IKParts(NamedTuple):
     strut: Array  # s = T·p + d + v0 − b, (..., 6, 3)
     length: Array  # |s|, (..., 6)
     unit: Array  # s/|s|, (..., 6, 3)
-    strokes: Array  # (..., 6)
+    readings: Array  # (..., 6)
     margin: Array  # (..., 6)
 
 
@@ -408,7 +408,7 @@ def _ik_parts(m: UPSMechanism, poses: Float[Array, "... 6"]) -> _IKParts:
     stack = lambda v: jnp.stack(jnp.broadcast_arrays(*v), axis=-1)  # noqa: E731
     strut = stack(leg.strut)
     safe = jnp.where(leg.length > 0, leg.length, 1.0)
-    return _IKParts(rot, stack(leg.tp), strut, leg.length, strut / safe[..., None], leg.strokes, leg.margin)
+    return _IKParts(rot, stack(leg.tp), strut, leg.length, strut / safe[..., None], leg.readings, leg.margin)
 
 
 def _angle(a: list[Array], b: list[Array]) -> Array:

@@ -18,7 +18,7 @@ How (per ray, ``jax.vmap`` over rays):
    ``tol·max_extent``. The reported extent is the reachable end of the final bracket.
 
 The leg whose margin is smallest at the unreachable end of the final bracket is the *binding*
-leg; its reading at the extent (``strokes``) tells which of its limits binds (for a 6-UPS with
+leg; its reading at the extent (``readings``) tells which of its limits binds (for a 6-UPS with
 stroke limits, a reading at ``min`` or ``max``).
 
 NOTE: the scan is what makes "first exit" well defined; an excursion out of the workspace
@@ -71,7 +71,7 @@ class RayExtents(NamedTuple):
     - ``binding_leg``: ``Int[Array, "n"]``, the leg (0–5) with the smallest margin just beyond
       the extent (the leg whose limit ends the ray; of legs meeting their limits together, the
       lowest index); −1 where ``hit_max`` or the centre is unreachable.
-    - ``strokes``: ``Float[Array, "n 6"]``, the actuator readings at the extent (mm).
+    - ``readings``: ``Float[Array, "n 6"]``, the actuator readings at the extent (mm).
     - ``margin``: ``Float[Array, "n 6"]``, the legs' margins at the extent (≥ 0; the binding
       leg's is ≈ 0).
     - ``converged``: ``Bool[Array, "n"]``, the final bracket is at most ``tol·max_extent`` wide
@@ -84,7 +84,7 @@ class RayExtents(NamedTuple):
     extent: Float[Array, " n"]
     hit_max: Bool[Array, " n"]
     binding_leg: Int[Array, " n"]
-    strokes: Float[Array, "n 6"]
+    readings: Float[Array, "n 6"]
     margin: Float[Array, "n 6"]
     converged: Bool[Array, " n"]
     directions: Float[Array, "n 6"]
@@ -176,7 +176,7 @@ def _rays(mechanism, centre, directions, max_extent, n_scan: int, tol: float, n_
             extent=lo,
             hit_max=all_ok,
             binding_leg=binding.astype(jnp.int32),
-            strokes=at.strokes,
+            readings=at.readings,
             margin=at.margin,
             converged=converged,
             directions=direction,

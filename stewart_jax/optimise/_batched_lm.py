@@ -26,7 +26,7 @@ It stops (status ``successful``) when ``‖g‖∞ ≤ gtol`` (eq. 3.9a), when t
 a start whose residual is not finite reports ``nonfinite`` at once.
 
 Separable problems. Where the residual splits into ``K`` groups of rows, each depending only on its
-own group of parameters (a parallel mechanism's readings: leg ``i``'s strokes depend only on leg
+own group of parameters (a parallel mechanism's readings: leg ``i``'s readings depend only on leg
 ``i``'s joints), ``blocks=(rows, cols)`` says so and the solver runs ``K`` independent LMs in one
 loop — ``JᵀJ`` is block-diagonal, so each block gets its own ``m_k × n_k`` normal equations,
 damping, gain ratio and stopping tests; one evaluation of the residual (and of the Jacobian) serves

@@ -4,7 +4,7 @@ Wang H., Cao X. et al., "Improved cuckoo calibration method of space telescope s
 adjusting mechanism", Infrared and Laser Engineering 47(5), 2018.
 
 Each trial: draw target poses (the paper's 8 random poses, or the 120-pose plan), simulate the
-measured data (strokes from the nominal model, poses from the true model plus noise),
+measured data (readings from the nominal model, poses from the true model plus noise),
 calibrate with each method from the nominal parameters, and evaluate the control error
 (command with the calibrated model, move the true mechanism) at the calibration poses and at
 42 fresh validation poses. Report per component the median and 90th percentile over trials of
@@ -153,7 +153,7 @@ def _max_errors_local(params, nominal, actual, targets, validation):
     m = targets.shape[1]
     poses = jnp.concatenate([targets, validation], axis=1)  # (trials, m + 42, 6)
     commands = jax.vmap(lambda p, t: nominal.with_params(p).solve_inverse_kinematics(t))(params, poses)
-    fk = forward_kinematics(actual, commands.strokes, poses)
+    fk = forward_kinematics(actual, commands.readings, poses)
     errors = jnp.abs(fk.poses - poses)
     ok = jnp.all(fk.converged & commands.reachable, axis=1)
     return jnp.max(errors[:, :m], axis=1), jnp.max(errors[:, m:], axis=1), ok
@@ -400,8 +400,8 @@ def _truth_representable(nominal: AbstractMechanism, actual: AbstractMechanism, 
     simulated data are explained by construction, and a misfit is the method's, not the
     geometry's."""
     poses = validation_poses(jax.random.key(0), 12, half=np.asarray(travel))
-    model = nominal.with_params(actual.params).solve_inverse_kinematics(poses).strokes
-    truth = actual.solve_inverse_kinematics(poses).strokes
+    model = nominal.with_params(actual.params).solve_inverse_kinematics(poses).readings
+    truth = actual.solve_inverse_kinematics(poses).readings
     return bool(np.all(np.isfinite(np.asarray(truth))) and np.max(np.abs(np.asarray(model - truth))) <= 1e-6)
 
 
