@@ -128,13 +128,14 @@ def test_a_command_line_process_freezes_its_start_up_objects(tmp_path):
     script = (
         "import gc, sys\n"
         "from stewart_jax._cli import main\n"
-        "sys.argv = ['stewart-jax', 'export', 'nominal', '--format', 'json', '--out', sys.argv[1]]\n"
+        "out = sys.argv[1]\n"
+        "sys.argv = ['stewart-jax', 'export', 'nominal', '--format', 'json', '--out', out]\n"
         "before = gc.get_freeze_count()\n"
         "assert main() == 0 and gc.isenabled() and gc.get_freeze_count() > before + 10_000\n"
         "assert gc.get_threshold()[0] == 20_000\n"
         "frozen = gc.get_freeze_count()\n"
         "gc.set_threshold(700, 10, 10)\n"
-        "assert main(['export', 'nominal', '--format', 'json', '--out', sys.argv[1] + '2']) == 0\n"
+        "assert main(['export', 'nominal', '--format', 'json', '--out', out + '2']) == 0\n"
         "assert gc.isenabled() and gc.get_freeze_count() == frozen and gc.get_threshold() == (700, 10, 10)\n"
     )
     out = subprocess.run([sys.executable, "-c", script, str(tmp_path / "n.json")], capture_output=True, text=True,
