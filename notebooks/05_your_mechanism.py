@@ -107,7 +107,7 @@ print("largest parameter corrections:",
 # %%
 res_before = np.asarray(problem.residuals(nominal.params)).reshape(-1, 6) * 1e3
 res_after = np.asarray(problem.residuals(result.params)).reshape(-1, 6) * 1e3
-fig = plotting.plot_stroke_residuals({"nominal geometry": res_before, "calibrated": res_after},
+fig = plotting.plot_reading_residuals({"nominal geometry": res_before, "calibrated": res_after},
                                      title="stroke residuals q' − IK(P', u) before and after calibration")
 plotting.show(fig, figure_path("05_stroke_residuals.png"))
 

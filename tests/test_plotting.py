@@ -93,9 +93,9 @@ def test_singular_values_and_parameter_std():
 
 
 def test_stroke_residuals():
-    _check(plotting.plot_stroke_residuals({"nominal": np.ones((10, 6)), "calibrated": np.zeros((10, 6))},
+    _check(plotting.plot_reading_residuals({"nominal": np.ones((10, 6)), "calibrated": np.zeros((10, 6))},
                                           sigma_um=0.1), 2)
-    fig = plotting.plot_stroke_residuals({"crank angles": np.ones((10, 6))}, unit="µrad")
+    fig = plotting.plot_reading_residuals({"crank angles": np.ones((10, 6))}, unit="µrad")
     assert fig.axes[0].get_ylabel() == "reading residual (µrad)" and "µm" not in fig.axes[0].get_title()
     _check(fig)
 

@@ -11,7 +11,7 @@ from stewart_jax.calibration import identifiability_report
 from stewart_jax.calibration._identifiability import (
     identification_jacobian,
     pose_noise_covariance,
-    stroke_noise_covariance,
+    reading_noise_covariance,
 )
 from stewart_jax.calibration._simulation import random_poses
 
@@ -22,7 +22,7 @@ def test_covariance_equals_the_dense_sandwich():
     poses = random_poses(jax.random.key(0), 40)
     rep = identifiability_report(nom, poses, sigma_um=0.1, sigma_arcsec=0.1)
     J = np.asarray(identification_jacobian(nom, poses))
-    C = np.asarray(stroke_noise_covariance(nom, poses, pose_noise_covariance(0.1, 0.1)))
+    C = np.asarray(reading_noise_covariance(nom, poses, pose_noise_covariance(0.1, 0.1)))
     dense = np.zeros((6 * 40, 6 * 40))
     for j in range(40):
         dense[6 * j:6 * j + 6, 6 * j:6 * j + 6] = C[j]

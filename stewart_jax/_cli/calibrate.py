@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from ..calibration._assessment import assess_calibration, hold_undetermined, implied_pose_errors
     from ..calibration._csv import read_csv
     from ..calibration._methods import calibrate
-    from ..calibration._problem import calibration_problem, stroke_residuals_compiled
+    from ..calibration._problem import calibration_problem, reading_residuals_compiled
     from ..mechanism._registry import save_mechanism
     from ..optimise._result import status_name
 
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     if np.all(np.isfinite(params)):
         params = hold_undetermined(nominal, data, params, args.sigma_um, args.sigma_arcsec)
         result = result._replace(params=params, cost=float(np.sum(np.asarray(
-            stroke_residuals_compiled(params, data, nominal)) ** 2)))
+            reading_residuals_compiled(params, data, nominal)) ** 2)))
     seconds = time.perf_counter() - t0
     m = data.n_poses
     rms_key, reading_unit, cost_unit = _reading_labels(nominal)
@@ -168,11 +168,11 @@ def run(args: argparse.Namespace) -> int:
         file_backend()
         from .. import plotting
         factor = report_factor(nominal.reading_unit)
-        before = np.asarray(stroke_residuals_compiled(nominal.params, data, nominal)).reshape(-1, 6) * factor
-        after = np.asarray(stroke_residuals_compiled(result.params, data, nominal)).reshape(-1, 6) * factor
+        before = np.asarray(reading_residuals_compiled(nominal.params, data, nominal)).reshape(-1, 6) * factor
+        after = np.asarray(reading_residuals_compiled(result.params, data, nominal)).reshape(-1, 6) * factor
         series = {"nominal": before, f"calibrated ({args.method})": after}
-        figure = (plotting.plot_stroke_residuals(series, sigma_um=args.sigma_um) if nominal.reading_unit == "mm"
-                  else plotting.plot_stroke_residuals(series, unit=reading_unit))
+        figure = (plotting.plot_reading_residuals(series, sigma_um=args.sigma_um) if nominal.reading_unit == "mm"
+                  else plotting.plot_reading_residuals(series, unit=reading_unit))
         plotting.show(figure, args.plot)
     if not args.json:
         from .._files import json_text

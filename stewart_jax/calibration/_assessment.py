@@ -51,7 +51,7 @@ from ._determined import (
     within_prior,
 )
 from ._identifiability import KinematicSnapshot, kinematic_snapshot, report_from_arrays
-from ._problem import CalibrationData, stroke_residuals_compiled
+from ._problem import CalibrationData, reading_residuals_compiled
 
 RANK_RTOL = 1e-9
 """Singular values below this fraction of the largest count as zero (the rank)."""
@@ -277,7 +277,7 @@ def hold_undetermined(
         return np.asarray(params)
 
     def residuals(u):
-        return np.asarray(stroke_residuals_compiled(to_device(u), data, nominal))
+        return np.asarray(reading_residuals_compiled(to_device(u), data, nominal))
 
     def jacobian(u):
         return -kinematic_snapshot(nominal.with_params(u), poses, sigma_um, sigma_arcsec).jacobian

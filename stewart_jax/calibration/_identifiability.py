@@ -44,7 +44,7 @@ def pose_noise_covariance(sigma_um: float, sigma_arcsec: float) -> Float[Array, 
     return jnp.diag(jnp.array([(sigma_um * UM) ** 2] * 3 + [(sigma_arcsec * ARCSEC) ** 2] * 3))
 
 
-def stroke_noise_covariance(
+def reading_noise_covariance(
     geometry: AbstractMechanism, poses: Float[Array, "m 6"], pose_cov: Float[Array, "6 6"]
 ) -> Float[Array, "m 6 6"]:
     """``C_j = J_P,j·Σ_P·J_P,jᵀ``: covariance of the six stroke residuals of each pose."""

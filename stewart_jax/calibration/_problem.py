@@ -96,7 +96,7 @@ def make_calibration_data(
     return CalibrationData(q, p, *extras)
 
 
-def stroke_residuals(
+def reading_residuals(
     params: Float[Array, " n"], data: CalibrationData, mechanism: AbstractMechanism
 ) -> Float[Array, "6m"]:
     """``E(u) = [e_11 … e_6m]``, ``e_j = q'_j − IK(P'_aj, u)`` (eqs. 7–8), in the reading unit
@@ -113,8 +113,8 @@ def stroke_residuals(
     return (data.readings - sol.readings).reshape(-1)
 
 
-stroke_residuals_compiled = eqx.filter_jit(stroke_residuals)
-""":func:`stroke_residuals` as one compiled program (per mechanism type and pose count), for the
+reading_residuals_compiled = eqx.filter_jit(reading_residuals)
+""":func:`reading_residuals` as one compiled program (per mechanism type and pose count), for the
 host-side steps that evaluate it at a few parameter vectors."""
 
 
@@ -152,7 +152,7 @@ class CalibrationProblem(eqx.Module):
     weights: Float[Array, " m"] | None = None
 
     def residuals(self, params: Float[Array, " n"]) -> Float[Array, "6m"]:
-        r = stroke_residuals(params, self.data, self.mechanism)
+        r = reading_residuals(params, self.data, self.mechanism)
         return r if self.weights is None else r * jnp.repeat(self.weights, 6)
 
     def cost(self, params: Float[Array, " n"]) -> Float[Array, ""]:

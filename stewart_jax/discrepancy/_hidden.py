@@ -36,8 +36,8 @@ from jaxtyping import Float
 
 from .._units import ARCSEC, UM
 from ..calibration._csv import write_csv
-from ..calibration._identifiability import stroke_noise_covariance
-from ..calibration._problem import CalibrationData, make_calibration_data, stroke_residuals
+from ..calibration._identifiability import reading_noise_covariance
+from ..calibration._problem import CalibrationData, make_calibration_data, reading_residuals
 from ..calibration._simulation import reachable_travel, sampling_plan_120
 from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._pss import actual_geometry
@@ -175,13 +175,13 @@ def hidden_pose_set(
     return p[rng.permutation(len(p))]
 
 
-_res_jac = jax.jit(jax.jacfwd(stroke_residuals))
+_res_jac = jax.jit(jax.jacfwd(reading_residuals))
 
 
 def _whitened_projector(geometry: AbstractMechanism, poses: np.ndarray, sigma: np.ndarray):
     """Per-pose whiteners of the reading residuals and an orthonormal basis of the whitened
     geometric-parameter Jacobian's span."""
-    cov = np.asarray(stroke_noise_covariance(geometry, jnp.asarray(poses), jnp.diag(jnp.asarray(sigma**2))))
+    cov = np.asarray(reading_noise_covariance(geometry, jnp.asarray(poses), jnp.diag(jnp.asarray(sigma**2))))
     w = np.linalg.inv(np.linalg.cholesky(cov))
     data = CalibrationData(jnp.zeros_like(jnp.asarray(poses)), jnp.asarray(poses))
     n = geometry.n_params

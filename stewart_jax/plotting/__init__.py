@@ -16,7 +16,7 @@ markers or dashed lines labelled "paper".
 
 - calibration (Wang et al. 2018): :func:`plot_pose_errors`, :func:`plot_table_comparison`,
   :func:`plot_convergence`, :func:`plot_singular_values`, :func:`plot_parameter_std`,
-  :func:`plot_stroke_residuals`;
+  :func:`plot_reading_residuals`;
 - the FAST cable robot (Yin et al.): :func:`plot_fast_time_series`, :func:`plot_fast_table2`,
   :func:`plot_fast_focal_map` (workspace and frequency maps), :func:`plot_fast_frequencies`;
 - model discrepancy: :func:`plot_residuals_vs_factor`, :func:`plot_residuals` (PNG files),
@@ -36,8 +36,8 @@ from ._calibration import (
     plot_convergence as plot_convergence,
     plot_parameter_std as plot_parameter_std,
     plot_pose_errors as plot_pose_errors,
+    plot_reading_residuals as plot_reading_residuals,
     plot_singular_values as plot_singular_values,
-    plot_stroke_residuals as plot_stroke_residuals,
     plot_table_comparison as plot_table_comparison,
 )
 from ._common import show as show

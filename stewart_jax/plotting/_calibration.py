@@ -239,7 +239,7 @@ def plot_parameter_std(
     return finish(fig, ax, title)
 
 
-def plot_stroke_residuals(
+def plot_reading_residuals(
     residuals_um: Any, *, sigma_um: float | None = None, title: str | None = None, unit: str = "µm"
 ) -> Figure:
     """Reading residuals ``q' − IK(P', u)`` per pose and leg (``unit``: µm for strokes, µrad for a

@@ -347,7 +347,7 @@ def run_study(
     indices = [str(first_trial + i) for i in range(n_trials)]
     rows: dict[str, Any] = {}
     warnings: list[str] = []
-    noise_mm = 0.0 if tracker else _stroke_noise_rms_mm(nominal, sigma_um, sigma_arcsec)
+    noise_mm = 0.0 if tracker else _reading_noise_rms_mm(nominal, sigma_um, sigma_arcsec)
     representable = _truth_representable(nominal, actual, travel)
     n_poses = 8 if plan == "paper8" else 120
     for method in [BEFORE, *methods]:
@@ -384,13 +384,13 @@ def run_study(
             "paper_table2": PAPER_TABLE2 if paper else None}
 
 
-def _stroke_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
+def _reading_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
     """RMS (the reading unit: mm, or rad for a rotary family) of the reading noise the pose noise
     causes at the zero pose: the scale against
     which a trial's RMS residual ``sqrt(S / 6m)`` is a gross misfit (0 without noise)."""
-    from ..calibration._identifiability import pose_noise_covariance, stroke_noise_covariance
+    from ..calibration._identifiability import pose_noise_covariance, reading_noise_covariance
 
-    cov = stroke_noise_covariance(nominal, jnp.zeros((1, 6)), pose_noise_covariance(sigma_um, sigma_arcsec))
+    cov = reading_noise_covariance(nominal, jnp.zeros((1, 6)), pose_noise_covariance(sigma_um, sigma_arcsec))
     return float(np.sqrt(np.trace(np.asarray(cov)[0]) / 6))
 
 
