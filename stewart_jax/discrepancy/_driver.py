@@ -47,7 +47,7 @@ from ._registry import AbstractDiscrepancyModel, Effect, effects_for
 from ._report import Candidate, DiagnosisReport, FittedModel, SkippedEffect
 from ._statistics import where_analysis
 from ._subspace import absorbing_params, base_param_names, prediction_factor
-from ._term_ensemble import TermInputs, earn_place
+from ._term_ensemble import TermInputs, earn_place, reproduced_by
 
 
 @eqx.filter_jit
@@ -351,6 +351,7 @@ class _Discovered(NamedTuple):
     discovered: list[dict[str, Any]]
     fitted: FittedModel | None
     residuals_te: np.ndarray | None
+    notes: tuple[str, ...] = ()
 
 
 def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovered:
@@ -359,7 +360,7 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
     w_tr, w_te, raw_te = np.asarray(fits.w_tr[b]), np.asarray(fits.w_te[b]), np.asarray(fits.raw_te[b])
     raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, ds.train))
     gap_before = float(np.sqrt(np.mean(raw_te[0] ** 2)) * model.report_factor)
-    terms, discovered, term_fit, passed = earn_place(TermInputs(
+    inp = TermInputs(
         model=model, train=ds.train, test=ds.test,
         reading_tr=np.asarray(model.observed(ds.train)) - raw_tr,
         reading_te=np.asarray(model.observed(ds.test)) - raw_te[0],
@@ -368,7 +369,15 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
         raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=np.asarray(fits.jac_tr[b])[:, :ds.nb],
         jac_te=np.asarray(fits.jac_te[b])[:, :ds.nb], dof0=dec.dof0, scale2=dec.scale2, known=ds.known,
         alpha=ds.alpha,
-    ), gap_before)
+    )
+    terms, discovered, term_fit, passed = earn_place(inp, gap_before)
+    jac_full = np.asarray(fits.jac_tr[b])
+    registered = [(c.effect, jac_full[:, ds.slices[i]]) for i, c in enumerate(dec.cands) if c.identifiable_rank > 0]
+    again = reproduced_by(terms, term_fit, inp, registered)
+    if again is not None:
+        return _Discovered([], None, None, (
+            f"the open search's terms ({'; '.join(d['description'] for d in discovered)}) are {again} again (its "
+            "fit reproduces them within the noise), which the candidates' tests above decided: not a discovery",))
     delta, coef = term_fit.delta, term_fit.coef
     if not passed:
         return _Discovered(discovered, None, None)
@@ -418,6 +427,7 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
     found = _Discovered([], None, None)
     if dec.detected and a is None and discover and supports_discovery(model, ds.train):
         found = _open_search(ds, dec, base_fm)
+        notes += found.notes
         if found.fitted is not None:
             aug_fm, after = found.fitted, found.residuals_te * rf
             res_after_lib = after / rf

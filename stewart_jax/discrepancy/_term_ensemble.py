@@ -16,6 +16,11 @@ nonlinear dynamical systems from data", JOSS 5(49)).
    (the gap); a group that fails is dropped from the fit, the report and the summary.
 4. The kept groups are fitted together (the base Jacobian in the regression); the augmented
    model passes when the held-out test that detected the discrepancy passes at the same level.
+5. The kept groups are not a discovery when a registered candidate reproduces their fitted
+   signature (the encompassing test of ``_equivalence.py``: the part of the signature outside base
+   + the candidate is within the noise): they are that candidate again, whose own held-out test and
+   comparison with the others already decided it (e.g. one coefficient per strut on the reading,
+   which is ``strut_scale``).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
+from scipy import stats
 
 from ._discovery import (
     DiscoveredTerms,
@@ -40,7 +46,7 @@ from ._discovery import (
     term_units,
 )
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p
-from ._subspace import basis
+from ._subspace import basis, n_identifiable
 
 N_SPLITS = 5
 """Re-splits of the training rows on which the selection is repeated."""
@@ -217,3 +223,24 @@ def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, mode
         out.append(d)
     return out
 
+
+
+def reproduced_by(terms: DiscoveredTerms, fit: TermFit, inp: TermInputs,
+                  candidates: Sequence[tuple[str, np.ndarray]]) -> str | None:
+    """The first registered candidate that reproduces the kept terms' fitted signature (step 5 of
+    the module docstring), or ``None``. ``candidates``: per registered candidate its name and its
+    whitened training columns ``(rows, c)``, in the row order of ``inp.jac_tr``."""
+    if not terms.specs:
+        return None
+    scale = reading_factor(inp.model)[0]
+    cols = np.concatenate([_columns(s, inp.reading_tr * scale, inp.train, inp.w_tr) for s in terms.specs], axis=1)
+    q_g = basis(inp.jac_tr)
+    own = cols - q_g @ (q_g.T @ cols)
+    sig = own @ fit.coef
+    for name, cand in candidates:
+        q = basis(np.concatenate([inp.jac_tr, cand], axis=1))
+        out = sig - q @ (q.T @ sig)
+        df = max(n_identifiable(q, own), 1)
+        if float(out @ out) / inp.scale2 < stats.chi2.ppf(1 - inp.alpha, df):
+            return name
+    return None
