@@ -452,7 +452,8 @@ def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...], det: Determi
     if rank == n and det.n_determined < n:
         held = describe_held(det, names, ())
         warnings.append(f"the points determine {det.n_determined} of {n} directions of the parameters and "
-                        "registration to better than the prior scale (1 mm for a length, 1 mrad for an angle); the "
+                        "registration to better than the as-built spread (half the prior scale: 0.5 mm for a length, "
+                        "0.5 mrad for an angle); the "
                         f"other {n - det.n_determined} are held at nominal: {'; '.join(held[:6])}"
                         f"{' …' if len(held) > 6 else ''}. Each std includes the prior's share on the held "
                         "directions; measure more varied poses to determine them")
