@@ -11,15 +11,17 @@ The whitened identification Jacobian ``J_W`` (each residual divided by its noise
 parameters' prior scales ``s`` (how far an as-built value may plausibly lie from its nominal one:
 :data:`PRIOR_SCALE`, 1 mm for a length, 1 mrad for an angle): ``J_S = J_W·diag(s)``, with singular
 values ``σ_i`` and right singular vectors ``v_i``. Along ``v_i`` the data alone give a standard
-deviation of ``1/σ_i`` prior scales. A direction with ``1/σ_i >`` :data:`DETERMINED_STD` is one the
-data determine no better than the prior: it is *undetermined*, whatever its numerical rank.
+deviation of ``1/σ_i`` prior scales. A direction with ``1/σ_i >`` :data:`DETERMINED_STD` (the
+as-built spread, half a prior scale) is one the data determine no better than the spread: it is
+*undetermined*, whatever its numerical rank.
 
 The calibration holds the undetermined directions at nominal: its update is restricted to the span
 of ``diag(s)·v_i`` over the determined directions (the truncated-SVD solution in the scaled metric,
 the minimum-norm update). Its covariance is ``diag(s)·V_k·Σ_k⁻²·V_kᵀ·diag(s)`` (for a weighted
 fit; the sandwich of :func:`restricted_covariance` for an unweighted one), so that no parameter's
 data standard deviation exceeds ``DETERMINED_STD·s_k``. Against the truth the held part of a
-parameter keeps its prior uncertainty, ``s_k²·Σ_held v_ik²``, which :func:`total_std` adds.
+parameter keeps the as-built spread, ``(AS_BUILT_SPREAD·s_k)²·Σ_held v_ik²``, which :func:`total_std`
+adds.
 """
 
 from __future__ import annotations
@@ -33,17 +35,18 @@ from jaxtyping import Float
 PRIOR_SCALE = {"mm": 1.0, "rad": 1e-3}
 """A parameter's prior scale per unit: how far an as-built length (mm) or angle (rad) may lie from
 its nominal value, 1 mm and 1 mrad (machining and assembly tolerances of telescope hexapods)."""
-DETERMINED_STD = 0.5
-"""A direction is determined when the data's standard deviation along it is at most this many
-prior scales.
+AS_BUILT_SPREAD = 0.5
+"""The as-built spread, a parameter's standard deviation about its nominal value, in prior scales.
 
 NOTE: a prior scale is a tolerance, about two standard deviations of the as-built spread (the
-command line simulates an as-built truth with σ = 0.5 mm, ``--perturb-mm``). Fitting a direction
-leaves an error of the data's σ along it, holding it at nominal one of the spread's σ; so a
-direction is fitted where the data's σ is below half the prior scale, the smaller mean-square
-error. At 1.0 (the data's σ against the whole tolerance) the fits of tracker points to a strut
-hexapod moved directions the data resolve worse than the spread and lost 1.3× on the worst
-validation component to an independent joint fit (``benchmarks/tracker_points_ml.py``)."""
+command line simulates an as-built truth with σ = 0.5 mm, ``--perturb-mm``). A direction held at
+nominal is off by the spread's σ; a direction fitted, by the data's σ along it."""
+DETERMINED_STD = AS_BUILT_SPREAD
+"""A direction is determined when the data's standard deviation along it is at most this many
+prior scales: the as-built spread, below which fitting it has the smaller mean-square error than
+holding it at nominal. (At one prior scale the fits of tracker points to a strut hexapod moved
+directions the data resolve worse than the spread, and lost 1.3× on the worst validation component
+to an independent joint fit: ``benchmarks/tracker_points_ml.py``.)"""
 
 
 def prior_scale(units: Sequence[str], registration: int = 0) -> np.ndarray:
@@ -143,8 +146,8 @@ def restricted_covariance(
 
 def total_std(det: Determination, cov: np.ndarray) -> np.ndarray:
     """``(n,)``: each parameter's standard deviation about the truth: the data's (``cov``) plus the
-    prior's on the held directions, ``s_k²·Σ_held v_ik²``."""
-    return np.sqrt(np.maximum(np.diag(cov), 0.0) + det.scale**2 * det.held_share())
+    as-built spread's on the held directions, ``(AS_BUILT_SPREAD·s_k)²·Σ_held v_ik²``."""
+    return np.sqrt(np.maximum(np.diag(cov), 0.0) + (AS_BUILT_SPREAD * det.scale) ** 2 * det.held_share())
 
 
 def refine_in_subspace(
