@@ -248,17 +248,17 @@ def _held_report(det, jac, noise, names, units, held: bool):
     alone = share <= 0.01
     k, n = det.n_determined, len(det.scale)
     where = describe_held(det, names, units)
-    scales = "half the prior scale: 0.5 mm for a length, 0.5 mrad for an angle"
+    scales = "1 mm for a length, 1 mrad for an angle"
     if held:
         cov = restricted_covariance(det, jac, noise)
         return alone, total_std(det, cov), cov, (
-            f"the data determine {k} of {n} parameter directions to better than the as-built spread ({scales}); "
+            f"the data determine {k} of {n} parameter directions to better than the prior scale ({scales}); "
             f"the other {n - k} are held at nominal: {'; '.join(where[:6])}{' …' if len(where) > 6 else ''}. "
             "Each std includes the prior's share on the held directions; measure more varied poses to determine them")
     cov = np.full((n, n), np.nan)
     std = np.full(n, np.nan)
     return np.zeros(n, bool), std, cov, (
-        f"the data determine {k} of {n} parameter directions to better than the as-built spread ({scales}); "
+        f"the data determine {k} of {n} parameter directions to better than the prior scale ({scales}); "
         f"the calibration moved along the other {n - k}, where its values are arbitrary: {'; '.join(where[:6])}"
         f"{' …' if len(where) > 6 else ''}. Hold them at nominal (stewart_jax.calibration.hold_undetermined; the "
         "command line does) before using the geometry")

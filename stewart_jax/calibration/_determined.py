@@ -11,17 +11,15 @@ The whitened identification Jacobian ``J_W`` (each residual divided by its noise
 parameters' prior scales ``s`` (how far an as-built value may plausibly lie from its nominal one:
 :data:`PRIOR_SCALE`, 1 mm for a length, 1 mrad for an angle): ``J_S = J_W·diag(s)``, with singular
 values ``σ_i`` and right singular vectors ``v_i``. Along ``v_i`` the data alone give a standard
-deviation of ``1/σ_i`` prior scales. A direction with ``1/σ_i >`` :data:`DETERMINED_STD` (the
-as-built spread, half a prior scale) is one the data determine no better than the spread: it is
-*undetermined*, whatever its numerical rank.
+deviation of ``1/σ_i`` prior scales. A direction with ``1/σ_i >`` :data:`DETERMINED_STD` is one the
+data determine no better than the prior: it is *undetermined*, whatever its numerical rank.
 
 The calibration holds the undetermined directions at nominal: its update is restricted to the span
 of ``diag(s)·v_i`` over the determined directions (the truncated-SVD solution in the scaled metric,
 the minimum-norm update). Its covariance is ``diag(s)·V_k·Σ_k⁻²·V_kᵀ·diag(s)`` (for a weighted
 fit; the sandwich of :func:`restricted_covariance` for an unweighted one), so that no parameter's
 data standard deviation exceeds ``DETERMINED_STD·s_k``. Against the truth the held part of a
-parameter keeps the as-built spread, ``(AS_BUILT_SPREAD·s_k)²·Σ_held v_ik²``, which :func:`total_std`
-adds.
+parameter keeps its prior uncertainty, ``s_k²·Σ_held v_ik²``, which :func:`total_std` adds.
 """
 
 from __future__ import annotations
@@ -35,18 +33,9 @@ from jaxtyping import Float
 PRIOR_SCALE = {"mm": 1.0, "rad": 1e-3}
 """A parameter's prior scale per unit: how far an as-built length (mm) or angle (rad) may lie from
 its nominal value, 1 mm and 1 mrad (machining and assembly tolerances of telescope hexapods)."""
-AS_BUILT_SPREAD = 0.5
-"""The as-built spread, a parameter's standard deviation about its nominal value, in prior scales.
-
-NOTE: a prior scale is a tolerance, about two standard deviations of the as-built spread (the
-command line simulates an as-built truth with σ = 0.5 mm, ``--perturb-mm``). A direction held at
-nominal is off by the spread's σ; a direction fitted, by the data's σ along it."""
-DETERMINED_STD = AS_BUILT_SPREAD
+DETERMINED_STD = 1.0
 """A direction is determined when the data's standard deviation along it is at most this many
-prior scales: the as-built spread, below which fitting it has the smaller mean-square error than
-holding it at nominal. (At one prior scale the fits of tracker points to a strut hexapod moved
-directions the data resolve worse than the spread, and lost 1.3× on the worst validation component
-to an independent joint fit: ``benchmarks/tracker_points_ml.py``.)"""
+prior scales."""
 
 
 def prior_scale(units: Sequence[str], registration: int = 0) -> np.ndarray:
@@ -65,12 +54,16 @@ class Determination(NamedTuple):
     - ``scale``: ``(n,)`` the prior scales; ``singular_values``: ``(n,)`` of ``J_S``, descending.
     - ``determined``: ``(k, n)`` the determined directions ``v_i`` (orthonormal, scaled units).
     - ``held``: ``(n − k, n)`` the undetermined ones, held at nominal.
+    - ``threshold``: :func:`determine`'s (prior scales).
     """
 
     scale: np.ndarray
     singular_values: np.ndarray
     determined: np.ndarray
     held: np.ndarray
+    threshold: float = 1.0
+    """The largest data std of a determined direction, in prior scales; also the std a held
+    direction keeps about the truth (:func:`total_std`)."""
 
     @property
     def n_determined(self) -> int:
@@ -91,27 +84,29 @@ class Determination(NamedTuple):
         return self.determined @ (np.asarray(update) / self.scale)
 
 
-def determine(jw: Float[np.ndarray, "rows n"], scale: Float[np.ndarray, " n"]) -> Determination:
-    """The determined and held directions of a whitened Jacobian ``jw`` (module docstring)."""
+def determine(jw: Float[np.ndarray, "rows n"], scale: Float[np.ndarray, " n"],
+              threshold: float = DETERMINED_STD) -> Determination:
+    """The determined and held directions of a whitened Jacobian ``jw`` (module docstring): a
+    direction is determined when the data's std along it is at most ``threshold`` prior scales."""
     js = np.asarray(jw) * scale
     _, sv, vt = np.linalg.svd(js, full_matrices=False)
     if len(sv) < len(scale):  # fewer rows than unknowns: the rest is not seen at all
         sv = np.concatenate([sv, np.zeros(len(scale) - len(sv))])
         _, _, vt = np.linalg.svd(js, full_matrices=True)
-    k = int(np.sum(sv * DETERMINED_STD >= 1.0))
-    return Determination(np.asarray(scale, dtype=np.float64), sv, vt[:k], vt[k:])
+    k = int(np.sum(sv * threshold >= 1.0))
+    return Determination(np.asarray(scale, dtype=np.float64), sv, vt[:k], vt[k:], float(threshold))
 
 
 def within_prior(det: Determination, jac: Float[np.ndarray, "m 6 n"], noise_cov: Float[np.ndarray, "m 6 6"]):
     """``det`` with its weakest determined directions moved to the held ones until no parameter's
     standard deviation about the truth (:func:`total_std`) under an *unweighted* estimator (the
-    sandwich of :func:`restricted_covariance`) exceeds ``DETERMINED_STD`` prior scales.
+    sandwich of :func:`restricted_covariance`) exceeds ``det.threshold`` prior scales.
 
     NOTE: the determination is made on the whitened (weighted) problem, whose covariance bounds
     the weighted estimator's; an unweighted fit can be less precise along the same directions."""
     while det.n_determined:
         std = total_std(det, restricted_covariance(det, jac, noise_cov))
-        if np.all(std <= DETERMINED_STD * det.scale * (1 + 1e-9)):
+        if np.all(std <= det.threshold * det.scale * (1 + 1e-9)):
             break
         k = det.n_determined - 1
         det = det._replace(determined=det.determined[:k], held=np.concatenate([det.determined[k:], det.held]))
@@ -146,8 +141,9 @@ def restricted_covariance(
 
 def total_std(det: Determination, cov: np.ndarray) -> np.ndarray:
     """``(n,)``: each parameter's standard deviation about the truth: the data's (``cov``) plus the
-    as-built spread's on the held directions, ``(AS_BUILT_SPREAD·s_k)²·Σ_held v_ik²``."""
-    return np.sqrt(np.maximum(np.diag(cov), 0.0) + (AS_BUILT_SPREAD * det.scale) ** 2 * det.held_share())
+    prior's on the held directions, ``(t·s_k)²·Σ_held v_ik²`` (``t`` the determination's
+    ``threshold``: a held direction keeps the spread the threshold stands for)."""
+    return np.sqrt(np.maximum(np.diag(cov), 0.0) + (det.threshold * det.scale) ** 2 * det.held_share())
 
 
 def refine_in_subspace(
