@@ -46,22 +46,10 @@ def tracker_sigma(args) -> tuple[float, float]:
 
 
 def run_calibrate(args: argparse.Namespace) -> int:
-    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``.
+    """``stewart-jax calibrate POINTS.csv --geometry G --targets T.json [--tracker-sigma-um R,A]``."""
+    range_um, across = _check_calibrate_args(args)
 
-    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the outputs,
-    read, calibrate, assess, print, write), each a few lines that read best in sequence."""
-    check_outputs(args, json="--json", out_geometry="--out-geometry", report="--report")
-    if args.targets is None:
-        raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
-                         "coordinates with --targets T.json")
-    for flag, value in (("--plot", args.plot), ("--holdout", args.holdout)):
-        if value is not None:
-            raise ValueError(f"{flag} is for pose files; a points file's report uses every pose")
-    if args.method != "lm-batched":
-        raise ValueError("a points file is calibrated by the batched Levenberg–Marquardt (--method lm-batched)")
-    range_um, across = tracker_sigma(args)
-
-    from ..calibration._points import calibrate_points, implied_point_pose_errors
+    from ..calibration._points import calibrate_points
     from ..calibration._points_io import read_points_csv, read_targets
     from ._common import load_nominal
 
@@ -72,6 +60,51 @@ def run_calibrate(args: argparse.Namespace) -> int:
     cal = calibrate_points(data, targets, nominal, range_um=range_um, across_um_per_m=across,
                            **({"max_steps": args.max_steps} if args.max_steps is not None else {}))
     seconds = time.perf_counter() - t0
+    a = cal.assessment
+    out = _calibrate_result(cal, data, nominal, seconds, range_um, across)
+    print(f"lm-batched (points): χ² = {cal.chi2:.6g} on {a.dof} degrees of freedom, rms point residual "
+          f"{out['rms_point_residual_um']:.4g} µm, {data.n_poses} poses ({out['poses_with_1_or_2_targets']} with 1–2 "
+          f"targets) in {seconds:.2f} s, status {cal.status}, data {a.status}", file=sys.stderr)
+    for w in a.warnings:
+        print(f"WARNING: {w}", file=sys.stderr)
+    if args.report:
+        _write_report(args, out, cal, data, targets, nominal, range_um, across)
+    if args.json:
+        write_json(args.json, out)
+    if args.out_geometry and cal.status != "nonfinite":
+        from ..calibration._determined import prior_scale
+        from ._common import save_calibrated
+
+        save_calibrated(args.out_geometry, nominal, cal.mechanism, a, prior_scale(nominal.param_units))
+    if not args.json:
+        from .._files import json_text
+
+        print(json_text(out, indent=None), end="")
+    if a.status == "nonfinite":
+        return 1
+    return 3 if a.status == "rank_deficient" else 0
+
+
+def _check_calibrate_args(args: argparse.Namespace) -> tuple[float, float]:
+    """The tracker noise (µm along the line of sight, µm per metre across it) of a points file's
+    ``calibrate``, after refusing the outputs that cannot be written, a missing ``--targets`` and
+    the options a points file does not take."""
+    check_outputs(args, json="--json", out_geometry="--out-geometry", report="--report")
+    if args.targets is None:
+        raise ValueError(f"{args.file} is a points file (it has a 'target' column): give the targets' nominal "
+                         "coordinates with --targets T.json")
+    for flag, value in (("--plot", args.plot), ("--holdout", args.holdout)):
+        if value is not None:
+            raise ValueError(f"{flag} is for pose files; a points file's report uses every pose")
+    if args.method != "lm-batched":
+        raise ValueError("a points file is calibrated by the batched Levenberg–Marquardt (--method lm-batched)")
+    return tracker_sigma(args)
+
+
+def _calibrate_result(cal, data, nominal, seconds: float, range_um: float, across: float) -> dict:
+    """The JSON result of a points calibration ``cal``: the fit, the registration, the assessment
+    (the mechanism's parameters and the registration's standard deviations apart) and, unless the
+    data are non-finite, the predicted control error's largest std per pose component."""
     n = nominal.n_params
     a = cal.assessment
     seen = data.targets_per_pose()
@@ -107,42 +140,32 @@ def run_calibrate(args: argparse.Namespace) -> int:
         out["predicted_control_error_std_max"] = dict(
             zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
                 np.max(std, axis=0).tolist(), strict=True))
-    print(f"lm-batched (points): χ² = {cal.chi2:.6g} on {a.dof} degrees of freedom, rms point residual "
-          f"{out['rms_point_residual_um']:.4g} µm, {data.n_poses} poses ({out['poses_with_1_or_2_targets']} with 1–2 "
-          f"targets) in {seconds:.2f} s, status {cal.status}, data {a.status}", file=sys.stderr)
-    for w in a.warnings:
-        print(f"WARNING: {w}", file=sys.stderr)
-    if args.report:
-        from .._files import write_text_atomic
-        from ..calibration._report import calibration_report
+    return out
 
-        errors = {"nominal geometry": implied_point_pose_errors(nominal, data, targets, cal.rotation, cal.translation),
-                  "calibrated": implied_point_pose_errors(cal.mechanism, data, targets, cal.rotation, cal.translation)}
-        result = dict(out, rms_residual_um=out["rms_point_residual_um"])
-        text = calibration_report(
-            source={"data": args.file, "targets": args.targets, "geometry": args.geometry,
-                    "method": "lm-batched on tracker points",
-                    "tracker noise": f"{range_um} µm along the line of sight, {across} µm/m across"},
-            nominal=nominal, calibrated=cal.mechanism, result=result, assessment=a._replace(param_std=a.param_std[:n]),
-            pose_errors=errors, heldout=None)
-        cost_line = next(x for x in text.splitlines() if x.startswith("- cost S = "))
-        text = text.replace(cost_line, f"- {len(data.points)} platform points and {len(data.references)} base "
-                            f"references; RMS point residual (3-D) {out['rms_point_residual_um']:.4g} µm")
-        write_text_atomic(args.report, text)
-    if args.json:
-        write_json(args.json, out)
-    if args.out_geometry and cal.status != "nonfinite":
-        from ..calibration._determined import prior_scale
-        from ._common import save_calibrated
 
-        save_calibrated(args.out_geometry, nominal, cal.mechanism, a, prior_scale(nominal.param_units))
-    if not args.json:
-        from .._files import json_text
+def _write_report(args, out: dict, cal, data, targets, nominal, range_um: float, across: float) -> None:
+    """Write the calibration report of a points calibration to ``--report``: the pose file's
+    report, with the implied pose errors under the fitted registration and the points' RMS
+    residual in place of the cost."""
+    from .._files import write_text_atomic
+    from ..calibration._points import implied_point_pose_errors
+    from ..calibration._report import calibration_report
 
-        print(json_text(out, indent=None), end="")
-    if a.status == "nonfinite":
-        return 1
-    return 3 if a.status == "rank_deficient" else 0
+    n = nominal.n_params
+    a = cal.assessment
+    errors = {"nominal geometry": implied_point_pose_errors(nominal, data, targets, cal.rotation, cal.translation),
+              "calibrated": implied_point_pose_errors(cal.mechanism, data, targets, cal.rotation, cal.translation)}
+    result = dict(out, rms_residual_um=out["rms_point_residual_um"])
+    text = calibration_report(
+        source={"data": args.file, "targets": args.targets, "geometry": args.geometry,
+                "method": "lm-batched on tracker points",
+                "tracker noise": f"{range_um} µm along the line of sight, {across} µm/m across"},
+        nominal=nominal, calibrated=cal.mechanism, result=result, assessment=a._replace(param_std=a.param_std[:n]),
+        pose_errors=errors, heldout=None)
+    cost_line = next(x for x in text.splitlines() if x.startswith("- cost S = "))
+    text = text.replace(cost_line, f"- {len(data.points)} platform points and {len(data.references)} base "
+                        f"references; RMS point residual (3-D) {out['rms_point_residual_um']:.4g} µm")
+    write_text_atomic(args.report, text)
 
 
 def run_simulate(args: argparse.Namespace) -> int:

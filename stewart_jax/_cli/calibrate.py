@@ -30,10 +30,84 @@ def _reading_labels(mechanism) -> tuple[str, str, str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    """``stewart-jax calibrate FILE.csv [--method M] [--geometry G] …``: a points file goes to
+    :func:`._points.run_calibrate`; a pose file is fitted, assessed, printed and written."""
     from . import _points
 
     if args.targets is not None or _points.is_points_file(args.file):
         return _points.run_calibrate(args)
+    holdout = _check_args(args)
+
+    import jax
+
+    from ..calibration._assessment import hold_undetermined
+    from ..calibration._csv import read_csv
+    from ..calibration._methods import calibrate
+    from ..calibration._problem import calibration_problem, reading_residuals_compiled
+    from ..mechanism._registry import save_mechanism
+
+    nominal, file_warnings = _load_nominal_warned(args)
+    data = read_csv(args.file, reading_unit=nominal.reading_unit)
+    _check_reachable(nominal, data, args)
+    problem = calibration_problem(data, nominal, args.half_width, args.half_width_mrad)
+    options = {}
+    if args.max_evaluations is not None:
+        options["max_evaluations"] = args.max_evaluations
+    if args.max_steps is not None:
+        options["max_steps"] = args.max_steps
+    big = data.n_poses >= PROGRESS_POSES
+    _progress(big, f"fitting {data.n_poses} poses with {args.method} …")
+    t0 = time.perf_counter()
+    result = jax.block_until_ready(calibrate(problem, args.method, seed_key(args.seed), **options))
+    params = np.asarray(result.params)
+    if np.all(np.isfinite(params)):
+        params = hold_undetermined(nominal, data, params, args.sigma_um, args.sigma_arcsec)
+        result = result._replace(params=params, cost=float(np.sum(np.asarray(
+            reading_residuals_compiled(params, data, nominal)) ** 2)))
+    seconds = time.perf_counter() - t0
+    rms_key, reading_unit, cost_unit = _reading_labels(nominal)
+    out = _fit_keys(args, nominal, problem, result, params, data.n_poses, seconds)
+    if args.json:
+        write_json(args.json, out)  # the fit first: a later step that fails never loses it
+    _progress(big, f"fit done in {seconds:.1f} s (status {out['status']})"
+              + (f", written to {args.json}" if args.json else ""))
+    calibrated = nominal.with_params(params)
+    assessment = _assess(args, out, nominal, calibrated, data, params, big)
+    _plausibility(out, nominal, params, problem, file_warnings)
+    print(
+        f"{args.method}: S = {out['cost']:.6g} {cost_unit} (rms reading residual {out[rms_key]:.4g} {reading_unit}) "
+        f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}"
+        + (f", data {out['data_status']}" if "data_status" in out else ""),
+        file=sys.stderr,
+    )
+    for w in out.get("warnings", []):
+        print(f"WARNING: {w}", file=sys.stderr)
+    if args.report and assessment is not None:
+        _write_report(args, out, nominal, calibrated, data, assessment, holdout, options)
+    if args.json:
+        write_json(args.json, out)
+    if args.out_geometry and out["status"] != "nonfinite":
+        if assessment is None:
+            save_mechanism(calibrated, args.out_geometry)
+        else:
+            from ..calibration._determined import prior_scale
+
+            save_calibrated(args.out_geometry, nominal, calibrated, assessment, prior_scale(nominal.param_units))
+    if args.plot:
+        _plot(args, nominal, data, result.params, reading_unit)
+    if not args.json:
+        from .._files import json_text
+
+        print(json_text(out, indent=None), end="")
+    if out["status"] == "nonfinite" or out.get("data_status") == "nonfinite":
+        return 1
+    return 3 if out.get("data_status") == "rank_deficient" else 0
+
+
+def _check_args(args: argparse.Namespace) -> float:
+    """The fraction of the poses held out for the report's check, after refusing (before any
+    work) the options a pose file does not take, outputs that cannot be written and out-of-range
+    numbers."""
     if args.tracker_sigma_um is not None:
         raise ValueError("--tracker-sigma-um is for a points file (with --targets); a pose file takes --sigma-um "
                          "and --sigma-arcsec")
@@ -53,17 +127,13 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--holdout must be a fraction in [0, 1), got {holdout}")
     if args.max_evaluations is not None and METHOD_REGISTRY[args.method].kind == "least_squares":
         raise ValueError("--max-evaluations applies to the metaheuristics; LM takes --max-steps")
+    return holdout
 
+
+def _load_nominal_warned(args) -> tuple:
+    """The nominal mechanism and the geometry file's warnings (their messages), each printed on
+    stderr as it is recorded."""
     import warnings
-
-    import jax
-
-    from ..calibration._assessment import assess_calibration, hold_undetermined, implied_pose_errors
-    from ..calibration._csv import read_csv
-    from ..calibration._methods import calibrate
-    from ..calibration._problem import calibration_problem, reading_residuals_compiled
-    from ..mechanism._registry import save_mechanism
-    from ..optimise._result import status_name
 
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
@@ -71,26 +141,17 @@ def run(args: argparse.Namespace) -> int:
     file_warnings = [str(w.message) for w in seen if issubclass(w.category, UserWarning)]
     for w in file_warnings:
         print(f"WARNING: {w}", file=sys.stderr)
-    data = read_csv(args.file, reading_unit=nominal.reading_unit)
-    _check_reachable(nominal, data, args)
-    problem = calibration_problem(data, nominal, args.half_width, args.half_width_mrad)
-    options = {}
-    if args.max_evaluations is not None:
-        options["max_evaluations"] = args.max_evaluations
-    if args.max_steps is not None:
-        options["max_steps"] = args.max_steps
-    big = data.n_poses >= PROGRESS_POSES
-    _progress(big, f"fitting {data.n_poses} poses with {args.method} …")
-    t0 = time.perf_counter()
-    result = jax.block_until_ready(calibrate(problem, args.method, seed_key(args.seed), **options))
-    params = np.asarray(result.params)
-    if np.all(np.isfinite(params)):
-        params = hold_undetermined(nominal, data, params, args.sigma_um, args.sigma_arcsec)
-        result = result._replace(params=params, cost=float(np.sum(np.asarray(
-            reading_residuals_compiled(params, data, nominal)) ** 2)))
-    seconds = time.perf_counter() - t0
-    m = data.n_poses
-    rms_key, reading_unit, cost_unit = _reading_labels(nominal)
+    return nominal, file_warnings
+
+
+def _fit_keys(args, nominal, problem, result, params, m: int, seconds: float) -> dict:
+    """The JSON keys of the fit of ``m`` poses (``params``: ``Float[np.ndarray, "n"]``, the
+    parameters' units; ``result``: the solver's): the parameters, the cost, status and time, the
+    RMS reading residual (the readings' report unit), whether the fit ended in the box, the box
+    and the seed."""
+    from ..optimise._result import status_name
+
+    rms_key, _, cost_unit = _reading_labels(nominal)
     out = {
         "method": args.method,
         "params": params.tolist(),
@@ -109,12 +170,16 @@ def run(args: argparse.Namespace) -> int:
     }
     if any(is_angle(u) for u in nominal.param_units):
         out["half_width_mrad"] = args.half_width if args.half_width_mrad is None else args.half_width_mrad
-    if args.json:
-        write_json(args.json, out)  # the fit first: a later step that fails never loses it
-    _progress(big, f"fit done in {seconds:.1f} s (status {out['status']})"
-              + (f", written to {args.json}" if args.json else ""))
-    calibrated = nominal.with_params(params)
-    assessment = None
+    return out
+
+
+def _assess(args, out: dict, nominal, calibrated, data, params, big: bool):
+    """Assess a finite fit (``params``: ``Float[np.ndarray, "n"]``) with :func:`assess_calibration`
+    and add its keys and the predicted control error's largest std per pose component to ``out``;
+    the assessment, or ``None`` for a non-finite fit, which ``out`` then marks as such with its
+    warning."""
+    from ..calibration._assessment import assess_calibration
+
     if out["status"] != "nonfinite" and np.all(np.isfinite(params)):
         _progress(big, "assessing the calibration (identifiability, goodness of fit, predicted control error) …")
         t_assess = time.perf_counter()
@@ -128,59 +193,45 @@ def run(args: argparse.Namespace) -> int:
                 zip(("dx_um", "dy_um", "dz_um", "phi_arcsec", "theta_arcsec", "psi_arcsec"),
                     np.max(std, axis=0).tolist(), strict=True))
         _progress(big, f"assessment done in {time.perf_counter() - t_assess:.1f} s")
-    else:
-        out["data_status"] = "nonfinite"
-        out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
-                           "check the units (mm, degrees) of the CSV and of the geometry"]
-    _plausibility(out, nominal, params, problem, file_warnings)
-    print(
-        f"{args.method}: S = {out['cost']:.6g} {cost_unit} (rms reading residual {out[rms_key]:.4g} {reading_unit}) "
-        f"after {out['n_evaluations']} evaluations in {seconds:.2f} s, status {out['status']}"
-        + (f", data {out['data_status']}" if "data_status" in out else ""),
-        file=sys.stderr,
-    )
-    for w in out.get("warnings", []):
-        print(f"WARNING: {w}", file=sys.stderr)
-    if args.report and assessment is not None:
-        heldout = _heldout(args, data, nominal, holdout, options) if holdout > 0 else None
-        from ..calibration._report import calibration_report
+        return assessment
+    out["data_status"] = "nonfinite"
+    out["warnings"] = ["the solver met a non-finite cost: a row the geometry cannot reach or a NaN in the data; "
+                       "check the units (mm, degrees) of the CSV and of the geometry"]
+    return None
 
-        errors = {"nominal geometry": implied_pose_errors(nominal, data),
-                  "calibrated": implied_pose_errors(calibrated, data)}
-        text = calibration_report(
-            source={"data": args.file, "geometry": args.geometry, "method": args.method,
-                    "pose noise": f"{args.sigma_um} µm, {args.sigma_arcsec}″"},
-            nominal=nominal, calibrated=calibrated, result=out, assessment=assessment, pose_errors=errors,
-            heldout=heldout)
-        from .._files import write_text_atomic
 
-        write_text_atomic(args.report, text)
-    if args.json:
-        write_json(args.json, out)
-    if args.out_geometry and out["status"] != "nonfinite":
-        if assessment is None:
-            save_mechanism(calibrated, args.out_geometry)
-        else:
-            from ..calibration._determined import prior_scale
+def _write_report(args, out: dict, nominal, calibrated, data, assessment, holdout: float, options: dict) -> None:
+    """Write the calibration report to ``--report``, with the implied pose errors before and after
+    calibration and, for ``holdout > 0``, at poses held out of a second calibration."""
+    from .._files import write_text_atomic
+    from ..calibration._assessment import implied_pose_errors
+    from ..calibration._report import calibration_report
 
-            save_calibrated(args.out_geometry, nominal, calibrated, assessment, prior_scale(nominal.param_units))
-    if args.plot:
-        file_backend()
-        from .. import plotting
-        factor = report_factor(nominal.reading_unit)
-        before = np.asarray(reading_residuals_compiled(nominal.params, data, nominal)).reshape(-1, 6) * factor
-        after = np.asarray(reading_residuals_compiled(result.params, data, nominal)).reshape(-1, 6) * factor
-        series = {"nominal": before, f"calibrated ({args.method})": after}
-        figure = (plotting.plot_reading_residuals(series, sigma_um=args.sigma_um) if nominal.reading_unit == "mm"
-                  else plotting.plot_reading_residuals(series, unit=reading_unit))
-        plotting.show(figure, args.plot)
-    if not args.json:
-        from .._files import json_text
+    heldout = _heldout(args, data, nominal, holdout, options) if holdout > 0 else None
+    errors = {"nominal geometry": implied_pose_errors(nominal, data),
+              "calibrated": implied_pose_errors(calibrated, data)}
+    text = calibration_report(
+        source={"data": args.file, "geometry": args.geometry, "method": args.method,
+                "pose noise": f"{args.sigma_um} µm, {args.sigma_arcsec}″"},
+        nominal=nominal, calibrated=calibrated, result=out, assessment=assessment, pose_errors=errors,
+        heldout=heldout)
+    write_text_atomic(args.report, text)
 
-        print(json_text(out, indent=None), end="")
-    if out["status"] == "nonfinite" or out.get("data_status") == "nonfinite":
-        return 1
-    return 3 if out.get("data_status") == "rank_deficient" else 0
+
+def _plot(args, nominal, data, params, reading_unit: str) -> None:
+    """Plot the reading residuals (``(m, 6)``, the readings' report unit) at the nominal and at the
+    calibrated ``params`` to ``--plot``."""
+    from ..calibration._problem import reading_residuals_compiled
+
+    file_backend()
+    from .. import plotting
+    factor = report_factor(nominal.reading_unit)
+    before = np.asarray(reading_residuals_compiled(nominal.params, data, nominal)).reshape(-1, 6) * factor
+    after = np.asarray(reading_residuals_compiled(params, data, nominal)).reshape(-1, 6) * factor
+    series = {"nominal": before, f"calibrated ({args.method})": after}
+    figure = (plotting.plot_reading_residuals(series, sigma_um=args.sigma_um) if nominal.reading_unit == "mm"
+              else plotting.plot_reading_residuals(series, unit=reading_unit))
+    plotting.show(figure, args.plot)
 
 
 def _check_reachable(nominal, data, args) -> None:

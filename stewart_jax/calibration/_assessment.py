@@ -139,11 +139,7 @@ def assess_calibration(
     are ``partly_determined`` when the calibration held them at ``nominal``
     (:func:`hold_undetermined`); a calibration that moved along them, or one assessed without its
     ``nominal``, is ``rank_deficient`` and those parameters get no standard deviation."""
-    if not (np.isfinite(sigma_um) and np.isfinite(sigma_arcsec) and sigma_um >= 0 and sigma_arcsec >= 0):
-        raise ValueError(f"the pose noise must be finite and >= 0, got sigma_um={sigma_um}, "
-                         f"sigma_arcsec={sigma_arcsec}")
-    if sigma_um == 0 and sigma_arcsec == 0:
-        raise ValueError("give the pose noise (sigma_um, sigma_arcsec > 0): the goodness of fit is measured against it")
+    _check_pose_noise(sigma_um, sigma_arcsec)
     poses = np.asarray(data.poses)
     m, n = poses.shape[0], calibrated.n_params
     warnings: list[str] = []
@@ -152,11 +148,7 @@ def assess_calibration(
     bad = np.flatnonzero(~np.all(np.isfinite(residuals), axis=1)).tolist()
     dups = duplicate_rows(poses)
     if dups:
-        k = sum(len(g) for g in dups) - len(dups)
-        warnings.append(
-            f"{k} row(s) repeat an earlier pose (groups, 1-based: {[[i + 1 for i in g] for g in dups[:5]]}"
-            f"{' …' if len(dups) > 5 else ''}): repeats count as independent measurements and make every "
-            "standard deviation look smaller than the pose set supports")
+        warnings.append(_duplicates_warning(dups))
     if bad:
         warnings.append(
             f"rows {[i + 1 for i in bad[:10]]}{' …' if len(bad) > 10 else ''} have non-finite residuals (a NaN "
@@ -167,37 +159,93 @@ def assess_calibration(
                                      float("nan"), 6 * m - n, float("nan"), float("nan"), warnings,
                                      np.full((n, n), np.nan))
     rep = report_from_arrays(snap.noise, snap.jacobian, rtol=RANK_RTOL)
+    identifiable, std, cov, text = _identifiable(rep, calibrated.param_names, n)
+    if text is not None:
+        warnings.append(text)
+    held, n_det = False, None
+    if rep.rank == n:
+        held, n_det, found = _held_directions(calibrated, nominal, snap, poses, sigma_um, sigma_arcsec)
+        if found is not None:
+            identifiable, std, cov, text = found
+            warnings.append(text)
+    chi2, dof, p, ratio, gross, poor, fit_warnings = _goodness_of_fit(
+        snap, residuals, rep.rank, calibrated.reading_unit, sigma_um, sigma_arcsec)
+    warnings += fit_warnings
+    # a gross misfit outranks rank deficiency: the numbers are wrong, not only under-determined
+    undetermined = rep.rank < n or (not held and not np.all(identifiable))
+    status = ("poor_fit" if gross else "rank_deficient" if undetermined
+              else "poor_fit" if poor else "partly_determined" if held else "ok")
+    return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
+                                 chi2, dof, p, ratio, warnings, cov, n_det)
+
+
+def _check_pose_noise(sigma_um: float, sigma_arcsec: float) -> None:
+    """Refuse a pose noise that is negative, not finite, or zero in both components."""
+    if not (np.isfinite(sigma_um) and np.isfinite(sigma_arcsec) and sigma_um >= 0 and sigma_arcsec >= 0):
+        raise ValueError(f"the pose noise must be finite and >= 0, got sigma_um={sigma_um}, "
+                         f"sigma_arcsec={sigma_arcsec}")
+    if sigma_um == 0 and sigma_arcsec == 0:
+        raise ValueError("give the pose noise (sigma_um, sigma_arcsec > 0): the goodness of fit is measured against it")
+
+
+def _duplicates_warning(dups: list[list[int]]) -> str:
+    """The warning for the groups of rows (0-based) measured at the same pose."""
+    k = sum(len(g) for g in dups) - len(dups)
+    return (f"{k} row(s) repeat an earlier pose (groups, 1-based: {[[i + 1 for i in g] for g in dups[:5]]}"
+            f"{' …' if len(dups) > 5 else ''}): repeats count as independent measurements and make every "
+            "standard deviation look smaller than the pose set supports")
+
+
+def _identifiable(rep, names: tuple[str, ...], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+    """From the identifiability report ``rep`` of the ``n`` parameters ``names``: ``identifiable``
+    (``Bool[np.ndarray, "n"]``), ``param_std`` (``Float[np.ndarray, "n"]``, the parameters' units,
+    NaN where not identifiable), ``param_cov`` (``Float[np.ndarray, "n n"]``) and the warning
+    naming the parameters that are not identifiable alone (``None`` at full rank)."""
     basis = np.asarray(rep.unidentifiable)  # (n − rank, n), the null space
     blind = np.sum(basis**2, axis=0) if basis.size else np.zeros(n)
     identifiable = blind <= IDENTIFIABLE_TOL
     std = np.where(identifiable, np.asarray(rep.param_std), np.nan)
     cov = np.asarray(rep.param_cov)
-    names = calibrated.param_names
+    text = None
     if rep.rank < n:
         lost = [names[k] for k in np.flatnonzero(~identifiable)]
-        warnings.append(
-            f"the data identify {rep.rank} of {n} parameter combinations (condition number "
-            f"{rep.condition_number:.3g}); not identifiable alone: {lost[:12]}{' …' if len(lost) > 12 else ''}. "
-            "Their values are the starting ones plus an arbitrary share; measure more, and more varied, poses "
-            "(stewart_jax.calibration.plan_poses_optimal chooses them)")
-    held, n_det = False, None
-    if rep.rank == n:
-        det, jac, noise = _determination(snap, calibrated.param_units)
-        if nominal is not None:  # the directions hold_undetermined held
-            det = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)[0]
-        n_det = det.n_determined
-        if det.n_determined < n:
-            held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
-            identifiable, std, cov, text = _held_report(det, jac, noise, names, calibrated.param_units, held)
-            warnings.append(text)
-    chi2, whitened = _gls_chi2(snap, residuals, rep.rank)
-    dof = 6 * m - rep.rank
+        text = (f"the data identify {rep.rank} of {n} parameter combinations (condition number "
+                f"{rep.condition_number:.3g}); not identifiable alone: {lost[:12]}{' …' if len(lost) > 12 else ''}. "
+                "Their values are the starting ones plus an arbitrary share; measure more, and more varied, poses "
+                "(stewart_jax.calibration.plan_poses_optimal chooses them)")
+    return identifiable, std, cov, text
+
+
+def _held_directions(calibrated, nominal, snap: KinematicSnapshot, poses, sigma_um, sigma_arcsec):
+    """At full rank: whether the calibration held the directions the data do not determine at
+    ``nominal`` (``False`` without ``nominal``), how many directions the data determine (judged at
+    ``nominal`` when given, else at ``calibrated``), and, when some are not determined,
+    :func:`_held_report`'s ``identifiable``, ``param_std``, ``param_cov`` and warning (else ``None``)."""
+    n = calibrated.n_params
+    det, jac, noise = _determination(snap, calibrated.param_units)
+    if nominal is not None:  # the directions hold_undetermined held
+        det = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)[0]
+    if det.n_determined == n:
+        return False, det.n_determined, None
+    held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
+    return held, det.n_determined, _held_report(det, jac, noise, calibrated.param_names, calibrated.param_units, held)
+
+
+def _goodness_of_fit(snap: KinematicSnapshot, residuals, rank: int, reading_unit: str, sigma_um, sigma_arcsec):
+    """The fit's tests against the stated pose noise: ``χ²``, its degrees of freedom, the upper
+    tail's p-value, ``sqrt(χ²/dof)`` (both NaN without degrees of freedom), whether the fit is a
+    gross misfit, whether it is poor (a gross misfit or either tail below :data:`FIT_P_VALUE`),
+    and the warnings, in that order. ``residuals``: ``Float[np.ndarray, "m 6"]`` (the readings' unit)."""
+    m = residuals.shape[0]
+    warnings = []
+    chi2, whitened = _gls_chi2(snap, residuals, rank)
+    dof = 6 * m - rank
     gross = float(np.sqrt(whitened / (6 * m)))
-    rms_reading = report_factor(calibrated.reading_unit) * float(np.sqrt(np.mean(residuals**2)))
+    rms_reading = report_factor(reading_unit) * float(np.sqrt(np.mean(residuals**2)))
     if gross > GROSS_MISFIT_RATIO:
         warnings.append(
             f"gross misfit: the stroke residuals are {gross:.3g}× the stated noise (σ = {sigma_um} µm, "
-            f"{sigma_arcsec}″; RMS {rms_reading:.4g} {report_unit(calibrated.reading_unit)}), far beyond what any "
+            f"{sigma_arcsec}″; RMS {rms_reading:.4g} {report_unit(reading_unit)}), far beyond what any "
             "noise explains. Likely causes: the units (poses in mm and degrees, readings in mm: angles in "
             "radians under a degree header, or a file in metres), the wrong geometry for this mechanism "
             "(--geometry), or the wrong parameter set (--param-set); the calibrated values are not to be used")
@@ -215,12 +263,7 @@ def assess_calibration(
             f"p = {low:.2g} of so small a value): σ is overstated — and every reported uncertainty with it — or "
             "the file's lengths are in another unit (a file in metres shrinks every length 1000×)")
     poor = gross > GROSS_MISFIT_RATIO or (dof > 0 and (p < FIT_P_VALUE or low < FIT_P_VALUE))
-    # a gross misfit outranks rank deficiency: the numbers are wrong, not only under-determined
-    undetermined = rep.rank < n or (not held and not np.all(identifiable))
-    status = ("poor_fit" if gross > GROSS_MISFIT_RATIO else "rank_deficient" if undetermined
-              else "poor_fit" if poor else "partly_determined" if held else "ok")
-    return CalibrationAssessment(status, rep.rank, n, float(rep.condition_number), identifiable, std, dups, [],
-                                 chi2, dof, p, ratio, warnings, cov, n_det)
+    return chi2, dof, p, ratio, gross > GROSS_MISFIT_RATIO, poor, warnings
 
 
 def _determination(snap: KinematicSnapshot, param_units: tuple[str, ...]):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+from typing import NamedTuple
 
 import numpy as np
 
@@ -70,12 +71,38 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
 
     The pose CSV's optional per-pose columns ``dir1..dir6`` (±1, all six), ``temperature`` (°C) and
     ``time`` (s) are read when present; rows of one pose repeat them, as they repeat the readings.
-
-    NOTE: over 80 lines: one pass over the rows with each check where a row first allows it, so
-    that every error names its line; split, the checks would need the row bookkeeping passed around.
     """
     angular = check_unit(reading_unit, "reading_unit", READING_UNITS) == "rad"
     rows, header = csv_rows(path)
+    col, dirs, conditions = _point_columns(path, header)
+    parsed = _point_rows(path, rows, header, col, dirs, conditions, targets, angular)
+    if len(set(parsed.reference_index)) < 3:
+        raise ValueError(f"{path}: {len(set(parsed.reference_index))} base reference(s) measured (rows with pose "
+                         f"'{REFERENCE_POSE}'); at least three define the base frame in the tracker's frame")
+    if not parsed.pose_names:
+        raise ValueError(f"{path}: no platform target rows")
+    refs_a, ridx_a = np.stack(parsed.references), np.asarray(parsed.reference_index)
+    _check_millimetres(path, refs_a, targets.base[ridx_a], parsed.reference_lines)
+    pts_a, pidx_a, tidx_a = np.stack(parsed.points), np.asarray(parsed.pose_index), np.asarray(parsed.target_index)
+    for j in range(len(parsed.pose_names)):
+        rows_j = np.flatnonzero(pidx_a == j)
+        if len(rows_j) >= 2:
+            _check_millimetres(path, pts_a[rows_j], targets.platform[tidx_a[rows_j]],
+                               [parsed.point_lines[i] for i in rows_j])
+    readings = np.stack(parsed.readings)
+    cond = np.stack(parsed.conditions)
+    k = len(dirs)
+    return PointData(tuple(parsed.pose_names), readings, pidx_a, tidx_a, pts_a, ridx_a, refs_a,
+                     directions=cond[:, :6] if dirs else None,
+                     temperature=cond[:, k] if "temperature" in conditions else None,
+                     time=cond[:, conditions.index("time")] if "time" in conditions else None)
+
+
+def _point_columns(path, header: list[str]) -> tuple[dict[str, int], list[str], tuple[str, ...]]:
+    """The points file's column indices (``{name: index}``, the required columns and the per-pose
+    ones), its direction columns (``[]`` or all of ``dir1..dir6``) and its per-pose condition
+    columns (the directions, then ``temperature`` and ``time`` where present), refusing a missing
+    required column and an incomplete set of direction columns."""
     missing = [c for c in POINT_COLUMNS if c not in header]
     if missing:
         raise ValueError(f"{path}: missing column(s) {missing}; a points file has {list(POINT_COLUMNS)}")
@@ -85,13 +112,45 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
         raise ValueError(f"{path}: direction columns must be all of dir1..dir6, found {dirs}")
     conditions = tuple(dirs) + tuple(c for c in ("temperature", "time") if c in header)
     col.update({c: header.index(c) for c in conditions})
+    return col, dirs, conditions
+
+
+class _PointRows(NamedTuple):
+    """A points file's rows, checked one by one, in file order.
+
+    - ``pose_names``: the ``m`` platform poses in order of first appearance; ``readings``: per pose
+      its ``(6,)`` readings (mm, or rad for an angular mechanism); ``conditions``: per pose its
+      ``(c,)`` condition cells (the order of :func:`_point_columns`' conditions).
+    - ``pose_index``, ``target_index``, ``points``, ``point_lines``: per platform row its pose (into
+      ``pose_names``), its target (into the targets file's platform targets), its ``(3,)`` point
+      (mm) and its line in the file.
+    - ``reference_index``, ``references``, ``reference_lines``: per base reference row its target
+      (into the targets file's base references), its ``(3,)`` point (mm) and its line.
+    """
+
+    pose_names: list[str]
+    readings: list[np.ndarray]
+    conditions: list[np.ndarray]
+    pose_index: list[int]
+    target_index: list[int]
+    points: list[np.ndarray]
+    point_lines: list[int]
+    reference_index: list[int]
+    references: list[np.ndarray]
+    reference_lines: list[int]
+
+
+def _point_rows(path, rows, header, col, dirs, conditions, targets: TrackerTargets, angular: bool) -> _PointRows:
+    """The rows of a points file (:class:`_PointRows`), each checked where it first allows it so
+    that every error names its line: the cell count, the pose and target cells, the numbers, a
+    repeated (pose, target), the target's name, a base reference with readings, the directions'
+    signs and a pose whose rows disagree."""
     platform = {n: i for i, n in enumerate(targets.platform_names)}
     base = {n: i for i, n in enumerate(targets.base_names)}
     seen: dict[tuple[str, str], int] = {}
-    pose_rows: dict[str, tuple[int, np.ndarray]] = {}
+    pose_rows: dict[str, tuple[int, np.ndarray, np.ndarray]] = {}
     pose_id: dict[str, int] = {}
-    pose_names: list[str] = []
-    pidx, tidx, pts, ridx, refs, ref_lines, point_lines = [], [], [], [], [], [], []
+    out = _PointRows([], [], [], [], [], [], [], [], [], [])
     for line, r in enumerate(rows[1:], start=2):
         if not any(c.strip() for c in r):
             continue
@@ -112,9 +171,9 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
             if any(r[col[c]].strip() for c in STROKE_COLUMNS):
                 raise ValueError(f"{path}, line {line}: a base reference row ('{REFERENCE_POSE}') has readings; "
                                  "leave q1..q6 empty (is the pose label wrong?)")
-            ridx.append(base[target])
-            refs.append(xyz)
-            ref_lines.append(line)
+            out.reference_index.append(base[target])
+            out.references.append(xyz)
+            out.reference_lines.append(line)
             continue
         if target not in platform:
             raise ValueError(f"{path}, line {line}: platform target {target!r} is not in the targets file's "
@@ -124,46 +183,35 @@ def read_points_csv(path: str | os.PathLike[str], targets: TrackerTargets, *, re
         if dirs and not np.all(np.isin(cond[:6], (-1.0, 1.0))):
             raise ValueError(f"{path}, line {line}: dir1..dir6 must hold +1 or -1")
         if pose in pose_rows:
-            first, q0, cond0 = pose_rows[pose]
-            if np.max(np.abs(q - q0)) > _READING_ATOL:
-                j = int(np.argmax(np.abs(q - q0)))
-                unit = "°" if angular else " mm"
-                a, b = (np.degrees([q[j], q0[j]]) if angular else (q[j], q0[j]))
-                raise ValueError(f"{path}, line {line}: pose {pose!r} has readings that disagree with its row on "
-                                 f"line {first} ({STROKE_COLUMNS[j]}: {float(a)!r}{unit} vs {float(b)!r}{unit}); rows "
-                                 "of one pose repeat its readings")
-            if np.any(cond != cond0):
-                worst = conditions[int(np.argmax(cond != cond0))]
-                raise ValueError(f"{path}, line {line}: pose {pose!r} has a {worst!r} that disagrees with its row on "
-                                 f"line {first}; rows of one pose repeat it")
+            _check_pose_repeat(path, line, pose, pose_rows[pose], q, cond, conditions, angular)
         else:
             pose_rows[pose] = (line, q, cond)
-            pose_id[pose] = len(pose_names)
-            pose_names.append(pose)
-        pidx.append(pose_id[pose])
-        tidx.append(platform[target])
-        pts.append(xyz)
-        point_lines.append(line)
-    if len(set(ridx)) < 3:
-        raise ValueError(f"{path}: {len(set(ridx))} base reference(s) measured (rows with pose '{REFERENCE_POSE}'); "
-                         "at least three define the base frame in the tracker's frame")
-    if not pose_names:
-        raise ValueError(f"{path}: no platform target rows")
-    refs_a, ridx_a = np.stack(refs), np.asarray(ridx)
-    _check_millimetres(path, refs_a, targets.base[ridx_a], ref_lines)
-    pts_a, pidx_a, tidx_a = np.stack(pts), np.asarray(pidx), np.asarray(tidx)
-    for j in range(len(pose_names)):
-        rows_j = np.flatnonzero(pidx_a == j)
-        if len(rows_j) >= 2:
-            _check_millimetres(path, pts_a[rows_j], targets.platform[tidx_a[rows_j]],
-                               [point_lines[i] for i in rows_j])
-    readings = np.stack([pose_rows[p][1] for p in pose_names])
-    cond = np.stack([pose_rows[p][2] for p in pose_names])
-    k = len(dirs)
-    return PointData(tuple(pose_names), readings, pidx_a, tidx_a, pts_a, ridx_a, refs_a,
-                     directions=cond[:, :6] if dirs else None,
-                     temperature=cond[:, k] if "temperature" in conditions else None,
-                     time=cond[:, conditions.index("time")] if "time" in conditions else None)
+            pose_id[pose] = len(out.pose_names)
+            out.pose_names.append(pose)
+            out.readings.append(q)
+            out.conditions.append(cond)
+        out.pose_index.append(pose_id[pose])
+        out.target_index.append(platform[target])
+        out.points.append(xyz)
+        out.point_lines.append(line)
+    return out
+
+
+def _check_pose_repeat(path, line, pose, first_row, q, cond, conditions, angular: bool) -> None:
+    """Refuse a later row of ``pose`` whose readings ``q`` ``(6,)`` or conditions ``cond`` ``(c,)``
+    differ from those of its first row ``first_row`` (its line, readings and conditions)."""
+    first, q0, cond0 = first_row
+    if np.max(np.abs(q - q0)) > _READING_ATOL:
+        j = int(np.argmax(np.abs(q - q0)))
+        unit = "°" if angular else " mm"
+        a, b = (np.degrees([q[j], q0[j]]) if angular else (q[j], q0[j]))
+        raise ValueError(f"{path}, line {line}: pose {pose!r} has readings that disagree with its row on "
+                         f"line {first} ({STROKE_COLUMNS[j]}: {float(a)!r}{unit} vs {float(b)!r}{unit}); rows "
+                         "of one pose repeat its readings")
+    if np.any(cond != cond0):
+        worst = conditions[int(np.argmax(cond != cond0))]
+        raise ValueError(f"{path}, line {line}: pose {pose!r} has a {worst!r} that disagrees with its row on "
+                         f"line {first}; rows of one pose repeat it")
 
 
 def write_points_csv(
