@@ -128,34 +128,11 @@ def _finish(args: argparse.Namespace, report, out: dict) -> int:
 
 def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     """``diagnose RECORD.csv --geometry fast``: the workflow on a record of the FAST cabin's free
-    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model).
-
-    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the options,
-    read the record, build the model, diagnose, print, write), each a few lines."""
-    import numpy as np
-
+    vibration (:mod:`stewart_jax.discrepancy`'s cabin-record model)."""
     from ..discrepancy import diagnose
-    from ..discrepancy._cabin_record import (
-        BASE_NAMES,
-        DEFAULT_SEGMENTS,
-        cabin_record_model,
-        fitted_modes,
-        read_cabin_record,
-    )
+    from ..discrepancy._cabin_record import cabin_record_model, read_cabin_record
 
-    position = (0.0, 0.0, 140.0) if args.position is None else args.position
-    segments = DEFAULT_SEGMENTS if args.segments is None else args.segments
-    if args.sigma_stroke_um or args.sigma_reading_urad:
-        raise ValueError("--sigma-stroke-um and --sigma-reading-urad are an actuator reading's noise; a cabin record "
-                         "has none")
-    if args.targets is not None or args.tracker_sigma_um is not None:
-        raise ValueError("--targets and --tracker-sigma-um are for a points file; a cabin record's noise is "
-                         "--sigma-um and --sigma-arcsec")
-    sigma_um = FAST_SIGMA_UM if args.sigma_um is None else args.sigma_um
-    sigma_arcsec = FAST_SIGMA_ARCSEC if args.sigma_arcsec is None else args.sigma_arcsec
-    from ..cable_robot._lumped import check_segments
-
-    check_segments(segments)
+    position, segments, sigma_um, sigma_arcsec = _cabin_settings(args)
     data = read_cabin_record(args.file)
     model = cabin_record_model(data, position, segments=segments, sigma_um=sigma_um, sigma_arcsec=sigma_arcsec)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
@@ -175,43 +152,11 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
         "alpha": args.alpha,
         "estimate_noise": args.estimate_noise,
     }
-    t = np.asarray(data.time)
-    out["record"] = {"rows": int(t.size), "duration_s": float(t[-1]), "rate_hz": float((t.size - 1) / t[-1]),
-                     "notes": list(model.notes),
-                     "fit_starts": {name: list(v) for name, v in model.grids}}
-    base = np.asarray(report.fitted.base)
-    out["base_params"] = {
-        "names": list(BASE_NAMES),
-        "units": ["mm"] * 3 + ["mrad"] * 3 + ["mm/s"] * 3 + ["mrad/s"] * 3 + ["1"] + ["mm"] * 3 + ["mrad"] * 3,
-        "before": np.asarray(report.base_fitted.base).tolist(),
-        "after": base.tolist(),
-    }
-    out["modes"] = {
-        "before": fitted_modes(model),
-        "after": fitted_modes(model, report.fitted.effects, report.fitted.thetas),
-        "measured_band_hz": [0.12, 0.2],
-        "measured_band_source": "Li, Sun, Li, Yao, Universe 10(12):450, 2024 (lowest cabin-cable mode)",
-    }
+    out.update(_cabin_fit_summary(data, model, report))
     if args.plot:
-        from ._common import file_backend
-
-        file_backend()
-        from ..plotting import plot_cabin_record, plot_residuals, show
-
-        out["plots"] = plot_residuals(report, args.plot)
-        import os
-
-        path = os.path.join(args.plot, "record_fit.png")
-        show(plot_cabin_record(report, data), path)
-        out["plots"].append(path)
+        out["plots"] = _cabin_plots(args.plot, report, data)
     if args.out_model:
-        from .._files import json_text, write_text_atomic
-
-        write_text_atomic(args.out_model, json_text({
-            "model": model.name, "position_m": list(position), "segments": segments,
-            "base_params": dict(zip(BASE_NAMES, base.tolist(), strict=True)),
-            "effects": report.fitted.effect_report(), "modes_hz": out["modes"]["after"]["frequencies_hz"],
-        }))
+        _write_cabin_model(args.out_model, model, position, segments, report, out["modes"]["after"])
     skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
     low = lambda m: f"{m['frequencies_hz'][0]:.4f} Hz" if m["frequencies_hz"] else "none"  # noqa: E731
     lines = report.summary() + [f"note: {n}" for n in model.notes]
@@ -221,6 +166,88 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
         print(f"diagnose: {line}", file=sys.stderr)
     _emit(args, out)
     return 0
+
+
+def _cabin_settings(args: argparse.Namespace) -> tuple[tuple[float, float, float], int, float, float]:
+    """A cabin record's settings, checked: the cabin's position (m), the segments per cable and
+    the tracker's noise σ (µm, ″), each defaulted where not given; the options of other data
+    refused."""
+    from ..discrepancy._cabin_record import DEFAULT_SEGMENTS
+
+    position = (0.0, 0.0, 140.0) if args.position is None else args.position
+    segments = DEFAULT_SEGMENTS if args.segments is None else args.segments
+    if args.sigma_stroke_um or args.sigma_reading_urad:
+        raise ValueError("--sigma-stroke-um and --sigma-reading-urad are an actuator reading's noise; a cabin record "
+                         "has none")
+    if args.targets is not None or args.tracker_sigma_um is not None:
+        raise ValueError("--targets and --tracker-sigma-um are for a points file; a cabin record's noise is "
+                         "--sigma-um and --sigma-arcsec")
+    sigma_um = FAST_SIGMA_UM if args.sigma_um is None else args.sigma_um
+    sigma_arcsec = FAST_SIGMA_ARCSEC if args.sigma_arcsec is None else args.sigma_arcsec
+    from ..cable_robot._lumped import check_segments
+
+    check_segments(segments)
+    return position, segments, sigma_um, sigma_arcsec
+
+
+def _cabin_fit_summary(data, model, report) -> dict:
+    """The report's ``record`` (rows, duration, rate, the model's notes and fit starts),
+    ``base_params`` (before and after, with units) and ``modes`` (before and after, and the
+    band measured on FAST) of a cabin record."""
+    import numpy as np
+
+    from ..discrepancy._cabin_record import BASE_NAMES, fitted_modes
+
+    t = np.asarray(data.time)
+    return {
+        "record": {"rows": int(t.size), "duration_s": float(t[-1]), "rate_hz": float((t.size - 1) / t[-1]),
+                   "notes": list(model.notes),
+                   "fit_starts": {name: list(v) for name, v in model.grids}},
+        "base_params": {
+            "names": list(BASE_NAMES),
+            "units": ["mm"] * 3 + ["mrad"] * 3 + ["mm/s"] * 3 + ["mrad/s"] * 3 + ["1"] + ["mm"] * 3 + ["mrad"] * 3,
+            "before": np.asarray(report.base_fitted.base).tolist(),
+            "after": np.asarray(report.fitted.base).tolist(),
+        },
+        "modes": {
+            "before": fitted_modes(model),
+            "after": fitted_modes(model, report.fitted.effects, report.fitted.thetas),
+            "measured_band_hz": [0.12, 0.2],
+            "measured_band_source": "Li, Sun, Li, Yao, Universe 10(12):450, 2024 (lowest cabin-cable mode)",
+        },
+    }
+
+
+def _cabin_plots(directory: str, report, data) -> list[str]:
+    """``--plot``: the residual plots and the record's fit (``record_fit.png``) written to
+    ``directory``; their paths."""
+    import os
+
+    from ._common import file_backend
+
+    file_backend()
+    from ..plotting import plot_cabin_record, plot_residuals, show
+
+    paths = plot_residuals(report, directory)
+    path = os.path.join(directory, "record_fit.png")
+    show(plot_cabin_record(report, data), path)
+    paths.append(path)
+    return paths
+
+
+def _write_cabin_model(path: str, model, position, segments: int, report, modes_after: dict) -> None:
+    """``--out-model``: the augmented cabin model as JSON (the base parameters, the effects and
+    the modes' frequencies after the fit)."""
+    import numpy as np
+
+    from .._files import json_text, write_text_atomic
+    from ..discrepancy._cabin_record import BASE_NAMES
+
+    write_text_atomic(path, json_text({
+        "model": model.name, "position_m": list(position), "segments": segments,
+        "base_params": dict(zip(BASE_NAMES, np.asarray(report.fitted.base).tolist(), strict=True)),
+        "effects": report.fitted.effect_report(), "modes_hz": modes_after["frequencies_hz"],
+    }))
 
 
 def _emit(args: argparse.Namespace, out: dict) -> None:

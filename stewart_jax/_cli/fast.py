@@ -154,44 +154,18 @@ def _statics(args, params):
 
 
 def run_fast(args: argparse.Namespace) -> int:
-    """Handler of ``stewart-jax fast``; returns the exit status.
-
-    NOTE: over 80 lines: the subcommand's steps in the order it runs them (check the options, the
-    statics, the modes, the simulation, print, write), each a few lines."""
-    import jax
-    import jax.numpy as jnp
-
+    """Handler of ``stewart-jax fast``; returns the exit status: the options checked, the statics
+    at the position, then the free-decay record, the lumped cables' modes or the scenario."""
     import stewart_jax  # noqa: F401  (float64)
 
-    from ..cable_robot import PAPER_TABLE2, WORKSPACE_STATUS, cable_string_modes, paper_fast_params
+    from ..cable_robot import WORKSPACE_STATUS, paper_fast_params
     from ..cable_robot._attitude import attitude_summary
-    from ..cable_robot._modes import cabin_modes_jit
-    from ..cable_robot._scenario import run_scenario_jit
     from ._common import check_outputs
 
     check_outputs(args, json="--json", plot="--plot", out="--out")
-    if getattr(args, "free_decay", False):
-        problem = _free_decay_problem(args)
-        if problem:
-            print(f"error: {problem}", file=sys.stderr)
-            return 2
-    elif getattr(args, "out", None):
-        print("error: --out writes a free-decay record: add --free-decay", file=sys.stderr)
-        return 2
-    if getattr(args, "cables", "quasi-static") == "lumped" and not getattr(args, "free_decay", False):
-        if not args.modes:
-            print("error: --cables lumped computes the statics and modes only; add --modes "
-                  "(the time simulation runs on quasi-static cables)", file=sys.stderr)
-            return 2
-        if not (np.isfinite(args.cutoff_hz) and args.cutoff_hz > 0):
-            print(f"error: --cutoff-hz must be a positive frequency in Hz, got {args.cutoff_hz}", file=sys.stderr)
-            return 2
-    if getattr(args, "cables", "quasi-static") == "lumped" and args.segments < 2:
-        print(f"error: --segments must be at least 2 (one free node per cable), got {args.segments}",
-              file=sys.stderr)
-        return 2
-    if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
-        print("error: need 0 < dt <= duration", file=sys.stderr)
+    problem = _option_problem(args)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
         return 2
     params = paper_fast_params()
     from ..cable_robot._inputs import check_time_step, focal_surface_warning, highest_mode_bound_hz, position_problem
@@ -219,20 +193,59 @@ def run_fast(args: argparse.Namespace) -> int:
         "clearance_m": np.asarray(cs.clearance_m).tolist(),
     }
     if status != "feasible":
-        out["status"] = status
-        if status == "no_equilibrium":
-            out["tensions_n"] = out["min_tension_n"] = [None] * 6
-            out["slack_margin_n"], out["clearance_m"] = None, [None] * 6
-        print(f"error: no feasible static equilibrium at {list(args.position)} m with the "
-              f"{sol.kind} attitude (tilt {np.rad2deg(sol.tilt_rad):.2f}°): {status.replace('_', ' ')}"
-              "; not simulated (try --attitude auto)", file=sys.stderr)
-        if args.json:
-            _write_json(args.json, out)
-        return 1
+        return _report_infeasible(args, sol, status, out)
     if getattr(args, "free_decay", False):
         return _run_free_decay(args, params, sol, out)
     if getattr(args, "cables", "quasi-static") == "lumped":
         return _run_lumped(args, params, sol, out)
+    return _run_scenario(args, params, sol, out)
+
+
+def _option_problem(args) -> str | None:
+    """What is wrong with the options (checked before any work), or ``None``."""
+    if getattr(args, "free_decay", False):
+        problem = _free_decay_problem(args)
+        if problem:
+            return problem
+    elif getattr(args, "out", None):
+        return "--out writes a free-decay record: add --free-decay"
+    if getattr(args, "cables", "quasi-static") == "lumped" and not getattr(args, "free_decay", False):
+        if not args.modes:
+            return ("--cables lumped computes the statics and modes only; add --modes "
+                    "(the time simulation runs on quasi-static cables)")
+        if not (np.isfinite(args.cutoff_hz) and args.cutoff_hz > 0):
+            return f"--cutoff-hz must be a positive frequency in Hz, got {args.cutoff_hz}"
+    if getattr(args, "cables", "quasi-static") == "lumped" and args.segments < 2:
+        return f"--segments must be at least 2 (one free node per cable), got {args.segments}"
+    if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
+        return "need 0 < dt <= duration"
+    return None
+
+
+def _report_infeasible(args, sol, status: str, out: dict) -> int:
+    """A cabin whose statics are infeasible (``status``): reported, with its JSON, not simulated
+    (exit status 1)."""
+    out["status"] = status
+    if status == "no_equilibrium":
+        out["tensions_n"] = out["min_tension_n"] = [None] * 6
+        out["slack_margin_n"], out["clearance_m"] = None, [None] * 6
+    print(f"error: no feasible static equilibrium at {list(args.position)} m with the "
+          f"{sol.kind} attitude (tilt {np.rad2deg(sol.tilt_rad):.2f}°): {status.replace('_', ' ')}"
+          "; not simulated (try --attitude auto)", file=sys.stderr)
+    if args.json:
+        _write_json(args.json, out)
+    return 1
+
+
+def _run_scenario(args, params, sol, out: dict) -> int:
+    """The scenario of Yin et al. §6 on quasi-static cables (and, with ``--modes``, the cabin's
+    modes): Table 2's columns per axis added to ``out``, printed, written."""
+    import jax
+    import jax.numpy as jnp
+
+    from ..cable_robot import PAPER_TABLE2
+    from ..cable_robot._scenario import run_scenario_jit
+
     R = None if sol.kind == "level" or not float(sol.tilt_rad) else jnp.asarray(sol.R)
     t0 = time.perf_counter()
     res = run_scenario_jit(params, jnp.asarray(args.position, jnp.float64), duration=args.duration,
@@ -264,20 +277,44 @@ def run_fast(args: argparse.Namespace) -> int:
     if key in PAPER_TABLE2:
         out["paper"] = {ax: {"std_m": v[0], "amplitude_m": v[1]} for ax, v in PAPER_TABLE2[key].items()}
     if args.modes:
-        pos = jnp.asarray(args.position, jnp.float64)
-        m = cabin_modes_jit(params, pos, jnp.asarray(sol.R), cs.static)
-        shapes = np.asarray(m.shapes)
-        out["modes"] = {
-            "status": "ok" if bool(m.ok) and bool(m.stable) else ("unstable" if bool(m.ok) else "failed"),
-            "frequencies_hz": np.asarray(m.frequencies_hz).tolist(),
-            "shapes": [{"translation_m": shapes[:3, k].tolist(), "rotation_rad": shapes[3:, k].tolist()}
-                       for k in range(6)],
-            "shape_normalisation": "M-orthonormal: shapeᵀ M shape = 1 (M in kg, kg·m, kg·m²)",
-            "cable_string_hz": np.asarray(cable_string_modes(params, pos, cs.static, sol.R)
-                                          .taut_string_hz).tolist(),
-        }
+        out["modes"] = _cabin_modes(args, params, sol)
     ok = out["static_converged"] and out["failed_cable_solves"] == 0
     out["status"] = "ok" if ok else "simulation_failed"
+    _print_scenario(args, sol, out, seconds)
+    if args.json:
+        _write_json(args.json, out)
+    if args.plot:
+        _plot(res, args.plot)
+    return 0 if ok else 1
+
+
+def _cabin_modes(args, params, sol) -> dict:
+    """``--modes``: the cabin's natural frequencies (Hz) and M-orthonormal mode shapes on its
+    quasi-static cables, and the cables' taut-string frequencies (Hz)."""
+    import jax.numpy as jnp
+
+    from ..cable_robot import cable_string_modes
+    from ..cable_robot._modes import cabin_modes_jit
+
+    cs = sol.statics
+    pos = jnp.asarray(args.position, jnp.float64)
+    m = cabin_modes_jit(params, pos, jnp.asarray(sol.R), cs.static)
+    shapes = np.asarray(m.shapes)
+    return {
+        "status": "ok" if bool(m.ok) and bool(m.stable) else ("unstable" if bool(m.ok) else "failed"),
+        "frequencies_hz": np.asarray(m.frequencies_hz).tolist(),
+        "shapes": [{"translation_m": shapes[:3, k].tolist(), "rotation_rad": shapes[3:, k].tolist()}
+                   for k in range(6)],
+        "shape_normalisation": "M-orthonormal: shapeᵀ M shape = 1 (M in kg, kg·m, kg·m²)",
+        "cable_string_hz": np.asarray(cable_string_modes(params, pos, cs.static, sol.R)
+                                      .taut_string_hz).tolist(),
+    }
+
+
+def _print_scenario(args, sol, out: dict, seconds: float) -> None:
+    """The scenario's summary on standard output: the settings, the cable tensions (kN), Table 2's
+    columns per axis (beside the paper's at its positions) and, with ``--modes``, the cabin's
+    frequencies."""
     print(f"FAST scenario at {list(args.position)} m ({sol.kind} attitude, tilt "
           f"{np.rad2deg(sol.tilt_rad):.3f}°), {args.duration} s, dt {args.dt} s, "
           f"start={args.start}, {args.method} ({seconds:.1f} s incl. compile)")
@@ -292,11 +329,6 @@ def run_fast(args: argparse.Namespace) -> int:
         print(line)
     if args.modes:
         print("natural frequencies (Hz): " + ", ".join(f"{f:.4f}" for f in out["modes"]["frequencies_hz"]))
-    if args.json:
-        _write_json(args.json, out)
-    if args.plot:
-        _plot(res, args.plot)
-    return 0 if ok else 1
 
 
 def _run_lumped(args, params, sol, out: dict) -> int:

@@ -24,6 +24,7 @@ returned in :class:`Trajectory`.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -176,47 +177,11 @@ def simulate(
     def f(t, y, guess):
         return cabin_rate(params, s0, lower_motion, t, y, guess)
 
-    def rk4_step(carry, i):
-        y, a_prev, guess, n_fail, n_newton = carry
-        del a_prev
-        t = i * dt
-
-        def rate(ti, yi, gi):
-            a, g, nf, nn = f(ti, yi, gi)
-            return CabinState(yi.vel, _quat_rate(yi.quat, yi.omega), a[:3], a[3:]), g, nf, nn
-
-        k1, g1, f1, n1 = rate(t, y, guess)
-        k2, g2, f2, n2 = rate(t + 0.5 * dt, _axpy(0.5 * dt, k1, y), g1)
-        k3, g3, f3, n3 = rate(t + 0.5 * dt, _axpy(0.5 * dt, k2, y), g2)
-        k4, g4, f4, n4 = rate(t + dt, _axpy(dt, k3, y), g3)
-        incr = jax.tree.map(lambda a, b, c, d: (a + 2.0 * b + 2.0 * c + d) / 6.0, k1, k2, k3, k4)
-        y_new = _axpy(dt, incr, y)
-        y_new = y_new._replace(quat=y_new.quat / jnp.linalg.norm(y_new.quat))
-        n_fail = n_fail + f1 + f2 + f3 + f4
-        n_newton = jnp.maximum(n_newton, jnp.max(jnp.stack([n1, n2, n3, n4])))
-        a_new = jnp.concatenate([k4.vel, k4.omega])
-        return (y_new, a_new, g4, n_fail, n_newton), (y_new, g4)
-
-    def verlet_step(carry, i):
-        y, a, (g_last, g_before), n_fail, n_newton = carry
-        t_new = (i + 1.0) * dt
-        pos = y.pos + y.vel * dt + 0.5 * a[:3] * dt**2
-        quat = _quat_mul(_quat_exp(y.omega * dt + 0.5 * a[3:] * dt**2), y.quat)
-        quat = quat / jnp.linalg.norm(quat)
-        pred = CabinState(pos, quat, y.vel + a[:3] * dt, y.omega + a[3:] * dt)
-        # The cable forces' warm start is extrapolated linearly from the last two steps: the
-        # first Newton step then lands within the tolerance far more often than from the
-        # last step's forces, and the solver's convergence test is unchanged.
-        a_new, g, nf, nn = f(t_new, pred, 2.0 * g_last - g_before)
-        y_new = CabinState(pos, quat, y.vel + 0.5 * (a[:3] + a_new[:3]) * dt,
-                           y.omega + 0.5 * (a[3:] + a_new[3:]) * dt)
-        return (y_new, a_new, (g, g_last), n_fail + nf, jnp.maximum(n_newton, nn)), (y_new, g)
-
     a0, g0, nf0, nn0 = f(jnp.asarray(0.0), state0, jnp.asarray(force0, jnp.float64))
     if method == "verlet":
-        init, step = (state0, a0, (g0, g0), nf0, nn0), verlet_step
+        init, step = (state0, a0, (g0, g0), nf0, nn0), functools.partial(_verlet_step, f, dt)
     else:
-        init, step = (state0, a0, g0, nf0, nn0), rk4_step
+        init, step = (state0, a0, g0, nf0, nn0), functools.partial(_rk4_step, f, dt)
     (_, _, _, n_fail, n_newton), (ys, gs) = jax.lax.scan(
         step, init, jnp.arange(n_steps, dtype=jnp.float64)
     )
@@ -232,6 +197,52 @@ def simulate(
         n_failed=n_fail,
         max_newton=n_newton,
     )
+
+
+def _rk4_step(f, dt, carry, i):
+    """Step ``i`` of :func:`simulate` by the classical Runge–Kutta method, ``f(t, state, forces)``
+    the model (:func:`cabin_rate`). ``carry`` is ``(state, accelerations (6,), cable forces
+    (6, 3) (N) of the last evaluation, failed cable solves, largest Newton count)``; returns
+    the new carry and ``(state, cable forces)`` of the step's end."""
+    y, a_prev, guess, n_fail, n_newton = carry
+    del a_prev
+    t = i * dt
+
+    def rate(ti, yi, gi):
+        a, g, nf, nn = f(ti, yi, gi)
+        return CabinState(yi.vel, _quat_rate(yi.quat, yi.omega), a[:3], a[3:]), g, nf, nn
+
+    k1, g1, f1, n1 = rate(t, y, guess)
+    k2, g2, f2, n2 = rate(t + 0.5 * dt, _axpy(0.5 * dt, k1, y), g1)
+    k3, g3, f3, n3 = rate(t + 0.5 * dt, _axpy(0.5 * dt, k2, y), g2)
+    k4, g4, f4, n4 = rate(t + dt, _axpy(dt, k3, y), g3)
+    incr = jax.tree.map(lambda a, b, c, d: (a + 2.0 * b + 2.0 * c + d) / 6.0, k1, k2, k3, k4)
+    y_new = _axpy(dt, incr, y)
+    y_new = y_new._replace(quat=y_new.quat / jnp.linalg.norm(y_new.quat))
+    n_fail = n_fail + f1 + f2 + f3 + f4
+    n_newton = jnp.maximum(n_newton, jnp.max(jnp.stack([n1, n2, n3, n4])))
+    a_new = jnp.concatenate([k4.vel, k4.omega])
+    return (y_new, a_new, g4, n_fail, n_newton), (y_new, g4)
+
+
+def _verlet_step(f, dt, carry, i):
+    """Step ``i`` of :func:`simulate` by velocity Verlet on the rotation group, ``f(t, state,
+    forces)`` the model (:func:`cabin_rate`). ``carry`` is ``(state, accelerations (6,), the
+    cable forces (6, 3) (N) of the last two steps, failed cable solves, largest Newton count)``;
+    returns the new carry and ``(state, cable forces)`` of the step's end."""
+    y, a, (g_last, g_before), n_fail, n_newton = carry
+    t_new = (i + 1.0) * dt
+    pos = y.pos + y.vel * dt + 0.5 * a[:3] * dt**2
+    quat = _quat_mul(_quat_exp(y.omega * dt + 0.5 * a[3:] * dt**2), y.quat)
+    quat = quat / jnp.linalg.norm(quat)
+    pred = CabinState(pos, quat, y.vel + a[:3] * dt, y.omega + a[3:] * dt)
+    # The cable forces' warm start is extrapolated linearly from the last two steps: the
+    # first Newton step then lands within the tolerance far more often than from the
+    # last step's forces, and the solver's convergence test is unchanged.
+    a_new, g, nf, nn = f(t_new, pred, 2.0 * g_last - g_before)
+    y_new = CabinState(pos, quat, y.vel + 0.5 * (a[:3] + a_new[:3]) * dt,
+                       y.omega + 0.5 * (a[3:] + a_new[3:]) * dt)
+    return (y_new, a_new, (g, g_last), n_fail + nf, jnp.maximum(n_newton, nn)), (y_new, g)
 
 
 def _axpy(a, x: CabinState, y: CabinState) -> CabinState:

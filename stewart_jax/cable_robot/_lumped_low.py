@@ -243,17 +243,10 @@ def lumped_low_modes(
     pos, R, st = _continuous_statics(params, position, R, static)
     prep = _low_prepare_jit(params, pos, R, st, n)
     _raise_if_failed(prep.statics, position, st)
-    # every eigenvalue of the banded standard form (band reduction and QR: faster than
-    # bisection for the ~100 wanted)
-    lam_all = scipy.linalg.eigvals_banded(np.asarray(prep.band), lower=False)
+    spec = _banded_spectrum(prep)
+    lam_all, tau = spec.lam, spec.tau
     n_dof = lam_all.shape[0]
-    tau = 1e-12 * float(np.max(np.abs(lam_all)))
-    mass_cc, node_mass = np.asarray(prep.mass_cc), np.asarray(prep.node_mass)
     compliance = np.asarray(prep.compliance)
-    # clusters: consecutive eigenvalues closer than 1e-6 relative or 1e3 tau
-    close = np.diff(lam_all) < 1e-6 * np.abs(lam_all[1:]) + 1e3 * tau
-    cluster = np.concatenate([[0], np.cumsum(~close)])
-    sizes = np.bincount(cluster)
     cut = float(cutoff_hz)
     chunks, done = [], 0
     while True:
@@ -264,38 +257,11 @@ def lumped_low_modes(
         # NOTE: the shapes of at least 4 modes above the cut-off are computed too (the guard: a
         # mode just above, which inverse iteration cannot damp from its neighbour below, is
         # then inside the Rayleigh–Ritz space instead of polluting it)
-        need = min(n_dof, k + 4)
-        while done < need:
-            # a chunk of whole clusters (padded with repeats of its last shift, dropped after)
-            end = done
-            while end < n_dof and end - done + sizes[cluster[end]] <= _CHUNK:
-                end += sizes[cluster[end]]
-            if end == done:   # a cluster wider than a chunk: the dense route
-                return _low_from_dense(lumped_modes(params, pos, n, R, st), cut)
-            lam = np.concatenate([lam_all[done:end], np.full(_CHUNK - (end - done), lam_all[end - 1])])
-            label = np.concatenate([cluster[done:end], -1 - np.arange(_CHUNK - (end - done))])
-            out = _inverse_iteration_jit(prep, jnp.asarray(lam), jnp.asarray(tau), len(chunks), jnp.asarray(label))
-            chunks.append([np.asarray(a)[:, :end - done] for a in out])
-            done = end
-        V, MV, KV = (np.concatenate([c[i] for c in chunks], axis=1) for i in range(3))
-        # NOTE: the chains are eliminated without pivoting across blocks; where σ happens to lie
-        # within ~ε‖A‖ of an eigenvalue of a chain's tail (one of ~N² per cable) a pivot is
-        # near singular and that one vector is poor (residual 1e-7–1e-3 where the rest are at
-        # 1e-12). Such vectors are recomputed with the shift moved by 1e-6 λ, above and then
-        # below (a different tail pivot; the neighbours it lets in are inside the Ritz space).
-        for attempt, move in enumerate((1.0 + 1e-6, 1.0 - 1e-6, None)):
-            try:
-                theta, shapes, res = _rayleigh_ritz(V, MV, KV, mass_cc, node_mass, tau)
-            except np.linalg.LinAlgError:   # the vectors did not span the modes: the dense route
-                return _low_from_dense(lumped_modes(params, pos, n, R, st), cut)
-            bad = np.flatnonzero(~(res[:k] <= 1e-9))
-            if move is None or bad.size == 0 or bad.size > _CHUNK:
-                break
-            lam = np.concatenate([lam_all[bad] * move, np.full(_CHUNK - bad.size, lam_all[bad[-1]] * move)])
-            out = _inverse_iteration_jit(prep, jnp.asarray(lam), jnp.asarray(tau), 1000 + attempt,
-                                         jnp.asarray(-1 - np.arange(_CHUNK)))
-            for a, b in zip((V, MV, KV), out, strict=True):
-                a[:, bad] = np.asarray(b)[:, :bad.size]
+        done = _more_vectors(prep, spec, chunks, done, min(n_dof, k + 4))
+        ritz = None if done is None else _checked_ritz(prep, spec, chunks, k)
+        if ritz is None:
+            return _low_from_dense(lumped_modes(params, pos, n, R, st), cut)
+        theta, shapes, res = ritz
         theta, shapes, res = theta[:k], shapes[:, :k], res[:k]
         share = (shapes[:6] ** 2 / theta[None, :]).T / compliance
         resolved = np.sum(share, axis=0)
@@ -306,13 +272,97 @@ def lumped_low_modes(
     lam_ok = np.max(np.abs(theta - lam_all[:k]) / np.maximum(np.abs(lam_all[:k]), tau)) < 1e-6
     if not (np.isfinite(residual) and residual <= 1e-6 and lam_ok):
         return _low_from_dense(lumped_modes(params, pos, n, R, st), cut)
+    return _banded_modes(prep, spec, theta, shapes, share, resolved, cut, residual)
+
+
+class _Spectrum(NamedTuple):
+    """The eigenvalues of the banded standard form (:func:`_banded_spectrum`).
+
+    - ``lam``: ``(n_dof,)``, ascending (rad²/s²); ``tau``: the shifts' offset, 1e-12 ``‖A‖``.
+    - ``cluster``: ``(n_dof,)``, each eigenvalue's cluster, numbered in order; ``sizes``: the
+      eigenvalues of each cluster.
+    """
+
+    lam: np.ndarray
+    tau: float
+    cluster: np.ndarray
+    sizes: np.ndarray
+
+
+def _banded_spectrum(prep: _LowPrep) -> _Spectrum:
+    """Every eigenvalue of the banded standard form (band reduction and QR: faster than
+    bisection for the ~100 wanted), grouped into clusters of consecutive eigenvalues closer
+    than 1e-6 relative or 1e3 ``tau``."""
+    lam_all = scipy.linalg.eigvals_banded(np.asarray(prep.band), lower=False)
+    tau = 1e-12 * float(np.max(np.abs(lam_all)))
+    close = np.diff(lam_all) < 1e-6 * np.abs(lam_all[1:]) + 1e3 * tau
+    cluster = np.concatenate([[0], np.cumsum(~close)])
+    return _Spectrum(lam_all, tau, cluster, np.bincount(cluster))
+
+
+def _more_vectors(prep: _LowPrep, spec: _Spectrum, chunks: list, done: int, need: int) -> int | None:
+    """Inverse-iteration vectors of eigenvalues ``done … need − 1`` and on to the end of the last
+    one's cluster, appended to ``chunks`` (per call of the jitted iteration ``[V, M V, K V]``,
+    each ``(n, width)``), a chunk of whole clusters at a time (padded with repeats of its last
+    shift, dropped after). Returns the eigenvalues now covered, or ``None`` for a cluster wider
+    than a chunk (the dense route)."""
+    lam_all, cluster, sizes = spec.lam, spec.cluster, spec.sizes
+    n_dof = lam_all.shape[0]
+    while done < need:
+        end = done
+        while end < n_dof and end - done + sizes[cluster[end]] <= _CHUNK:
+            end += sizes[cluster[end]]
+        if end == done:
+            return None
+        lam = np.concatenate([lam_all[done:end], np.full(_CHUNK - (end - done), lam_all[end - 1])])
+        label = np.concatenate([cluster[done:end], -1 - np.arange(_CHUNK - (end - done))])
+        out = _inverse_iteration_jit(prep, jnp.asarray(lam), jnp.asarray(spec.tau), len(chunks), jnp.asarray(label))
+        chunks.append([np.asarray(a)[:, :end - done] for a in out])
+        done = end
+    return done
+
+
+def _checked_ritz(prep: _LowPrep, spec: _Spectrum, chunks: list, k: int):
+    """The Rayleigh–Ritz values, vectors and residuals (:func:`_rayleigh_ritz`) of the vectors
+    of ``chunks``, a vector of the lowest ``k`` whose residual exceeds 1e-9 recomputed with its
+    shift moved; ``None`` where the vectors do not span the modes (the dense route).
+
+    NOTE: the chains are eliminated without pivoting across blocks; where σ happens to lie
+    within ~ε‖A‖ of an eigenvalue of a chain's tail (one of ~N² per cable) a pivot is near
+    singular and that one vector is poor (residual 1e-7–1e-3 where the rest are at 1e-12). Such
+    vectors are recomputed with the shift moved by 1e-6 λ, above and then below (a different
+    tail pivot; the neighbours it lets in are inside the Ritz space).
+    """
+    lam_all, tau = spec.lam, spec.tau
+    mass_cc, node_mass = np.asarray(prep.mass_cc), np.asarray(prep.node_mass)
+    V, MV, KV = (np.concatenate([c[i] for c in chunks], axis=1) for i in range(3))
+    for attempt, move in enumerate((1.0 + 1e-6, 1.0 - 1e-6, None)):
+        try:
+            theta, shapes, res = _rayleigh_ritz(V, MV, KV, mass_cc, node_mass, tau)
+        except np.linalg.LinAlgError:
+            return None
+        bad = np.flatnonzero(~(res[:k] <= 1e-9))
+        if move is None or bad.size == 0 or bad.size > _CHUNK:
+            break
+        lam = np.concatenate([lam_all[bad] * move, np.full(_CHUNK - bad.size, lam_all[bad[-1]] * move)])
+        out = _inverse_iteration_jit(prep, jnp.asarray(lam), jnp.asarray(tau), 1000 + attempt,
+                                     jnp.asarray(-1 - np.arange(_CHUNK)))
+        for a, b in zip((V, MV, KV), out, strict=True):
+            a[:, bad] = np.asarray(b)[:, :bad.size]
+    return theta, shapes, res
+
+
+def _banded_modes(prep: _LowPrep, spec: _Spectrum, theta, shapes, share, resolved, cut: float,
+                  residual: float) -> LumpedLowModes:
+    """The :class:`LumpedLowModes` of the banded route from the checked Ritz values ``theta``
+    ``(k,)`` (rad²/s²), shapes ``(n, k)`` and compliance shares ``(k, 6)``, ``resolved`` ``(6,)``."""
     freq = np.sign(theta) * np.sqrt(np.abs(theta)) / (2.0 * np.pi)
     cab = shapes[:6]
-    energy_share = np.einsum("km,kl,lm->m", cab, mass_cc, cab)
+    energy_share = np.einsum("km,kl,lm->m", cab, np.asarray(prep.mass_cc), cab)
     ok = bool(prep.statics.converged) and bool(np.all(np.isfinite(freq)))
     return LumpedLowModes(jnp.asarray(freq), jnp.asarray(shapes), jnp.asarray(energy_share), jnp.asarray(share),
                           prep.compliance, jnp.asarray(resolved), cut, prep.statics, jnp.asarray(residual),
-                          jnp.asarray(bool(lam_all[0] > 0)), jnp.asarray(ok), "banded")
+                          jnp.asarray(bool(spec.lam[0] > 0)), jnp.asarray(ok), "banded")
 
 
 def _low_from_dense(full: LumpedModes, cutoff_hz: float) -> LumpedLowModes:

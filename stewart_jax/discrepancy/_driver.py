@@ -396,22 +396,14 @@ def _absorbed_by(ds: DataSet, cands: tuple[Candidate, ...]) -> dict[str, list[st
     }
 
 
-def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: bool) -> DiagnosisReport:
-    """Show: the report of one data set — the name that stands, the gap before and after against
-    the noise floors, each candidate's share of the gap, the open search where nothing is named,
-    the derived errors and the "where" analysis.
-
-    NOTE: over 80 lines: most are the report's fields, one per line."""
-    model, rf, known = ds.model, ds.model.report_factor, ds.known
-    name = _settle_name(ds, dec, discover)
-    a, notes = name.named, list(name.notes)
-    base_fm, aug_fm = _fitted(ds, None), _fitted(ds, a)
-    raw_te = np.asarray(ds.fits.raw_te[ds.b])
-    before = raw_te[0] * rf
-    res_after_lib = raw_te[0 if a is None else a + 1]
-    after = res_after_lib * rf
-    floor, floor_pred = _noise_floors(ds, dec.scale2)
-    gap_before = float(np.sqrt(np.mean(before**2)))
+def _gap_shares(ds: DataSet, dec: Decision, name: _Naming, gap_before: float, floor_pred: float
+                ) -> tuple[tuple[Candidate, ...], list[dict[str, Any]]]:
+    """The candidates of ``name`` with their share of the gap (``gap_share``: the held-out mean
+    square a candidate removes over the gap's excess above the predictive noise floor, 0
+    without excess), and the partial explanations of a detected gap that nothing names: the
+    significant candidates that do not explain it and a demoted name (with the effects it
+    needs), largest share first."""
+    a = name.named
     excess = gap_before**2 - floor_pred**2
     cands = tuple(
         dataclasses.replace(c, gap_share=float((gap_before**2 - c.heldout_rms**2) / excess) if excess > 0 else 0.0)
@@ -424,6 +416,42 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
         for c in sorted(cands, key=lambda c: -c.gap_share)
         if dec.detected and a is None and c.significant and (not c.explains or c.effect == demoted)
     ]
+    return cands, partial
+
+
+def _fit_notes(ds: DataSet, dec: Decision) -> list[str]:
+    """The report's notes on the base fit: a Levenberg–Marquardt fit that did not converge, base
+    parameter directions the data do not determine."""
+    notes = []
+    if not bool(ds.fits.base_ok[ds.b]):
+        notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
+    if dec.rank_g < ds.nb:
+        notes.append(f"the data determine only {dec.rank_g} of the {ds.nb} base parameter directions")
+    return notes
+
+
+def _derived_rms(ds: DataSet, fm: FittedModel, res: np.ndarray) -> dict[str, float]:
+    """The RMS of each derived error (6-PSS: pose errors, report units) of the fit ``fm`` at the
+    held-out rows of ``ds``, from its held-out residuals ``res`` ``(m_te, k)`` (library units)."""
+    d = ds.model.derived_errors(fm.base, ds.test, res)
+    return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
+
+
+def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: bool) -> DiagnosisReport:
+    """Show: the report of one data set — the name that stands, the gap before and after against
+    the noise floors, each candidate's share of the gap, the open search where nothing is named,
+    the derived errors and the "where" analysis."""
+    model, rf, known = ds.model, ds.model.report_factor, ds.known
+    name = _settle_name(ds, dec, discover)
+    a, notes = name.named, list(name.notes)
+    base_fm, aug_fm = _fitted(ds, None), _fitted(ds, a)
+    raw_te = np.asarray(ds.fits.raw_te[ds.b])
+    before = raw_te[0] * rf
+    res_after_lib = raw_te[0 if a is None else a + 1]
+    after = res_after_lib * rf
+    floor, floor_pred = _noise_floors(ds, dec.scale2)
+    gap_before = float(np.sqrt(np.mean(before**2)))
+    cands, partial = _gap_shares(ds, dec, name, gap_before, floor_pred)
     found = _Discovered([], None, None)
     if dec.detected and a is None and discover and supports_discovery(model, ds.train):
         found = _open_search(ds, dec, base_fm)
@@ -431,15 +459,7 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
         if found.fitted is not None:
             aug_fm, after = found.fitted, found.residuals_te * rf
             res_after_lib = after / rf
-    if not bool(ds.fits.base_ok[ds.b]):
-        notes.append("the base Levenberg–Marquardt fit did not converge within the step budget")
-    if dec.rank_g < ds.nb:
-        notes.append(f"the data determine only {dec.rank_g} of the {ds.nb} base parameter directions")
-
-    def rms_dict(fm, res):
-        d = model.derived_errors(fm.base, ds.test, res)
-        return {kname: float(np.sqrt(np.mean(v**2))) for kname, v in d.items()}
-
+    notes += _fit_notes(ds, dec)
     factors = model.factors(ds.test)
     return DiagnosisReport(
         model=model.name,
@@ -464,8 +484,8 @@ def _finish(ds: DataSet, dec: Decision, skipped: list[SkippedEffect], discover: 
         gap_after=float(np.sqrt(np.mean(after**2))),
         noise_floor=floor,
         noise_floor_predictive=floor_pred,
-        derived_before=rms_dict(base_fm, raw_te[0]),
-        derived_after=rms_dict(aug_fm, res_after_lib),
+        derived_before=_derived_rms(ds, base_fm, raw_te[0]),
+        derived_after=_derived_rms(ds, aug_fm, res_after_lib),
         where_before=where_analysis(before, factors, model.output_names, ds.alpha),
         where_after=where_analysis(after, factors, model.output_names, ds.alpha),
         base_chi2=float(dec.chi2[0]),

@@ -14,6 +14,7 @@ equations with a Levenberg ridge (Nocedal and Wright 2006, "Numerical Optimizati
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -167,7 +168,9 @@ def _start(model, effects, mask, train, w_tr, z0, profiles):
 
 def _fit_gn(model, effects, mask, train, w_tr, test, z0, jac0, profiles=None):
     """Gauss–Newton refinement of base + the effects in ``mask`` from ``z0`` (the base fit), with
-    the whitened Jacobian ``jac0`` of every unknown at ``z0``.
+    the whitened Jacobian ``jac0`` of every unknown at ``z0``. Returns the scaled unknowns ``z``
+    ``(n,)``, the whitened training χ², whether the last step's change of χ² passed the
+    convergence test, and the held-out raw residuals ``(m_te, k)`` (library units).
 
     NOTE: started at the base optimum with the effect parameters at 0, every augmented problem
     is linear to within (effect size / lever arm) ~1e-4, so the Jacobian at the start serves
@@ -183,7 +186,68 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0, jac0, profiles=None):
     active ones a tiny ridge (on unit-normalised columns), so the solve is full-rank even when
     two effects are collinear. The normal equations (Cholesky, ~1 ms) replace QR (~50 ms on
     CPU for these sizes): they square the condition number (~1e5 → 1e10 here), which costs
-    accuracy in the step, not in the fixed point — the next step corrects it.
+    accuracy in the step, not in the fixed point — the next step corrects it. Where the chord
+    steps do not converge, :func:`_fit_chord` redoes the fit by full Gauss–Newton.
+
+    A model whose effects are far from linear (a frequency change over a long record) names
+    starting points (:func:`_start`, ``profiles``) and its own number of steps; its fits
+    (:func:`_fit_searched`) take full Gauss–Newton steps from there.
+    """
+    keep = _keep(model, effects, mask)
+    args = (model, effects, mask, train, w_tr)
+    ridge = jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
+    a, d = _normalise(jac0, keep)
+    factor = jax.scipy.linalg.cho_factor(a.T @ a + ridge)
+    if model.effect_grid(effects) is not None:
+        z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
+        z, chi2, converged = _fit_searched(args, keep, ridge, z_start, model.fit_steps or GN_STEPS)
+    else:
+        z, chi2, converged = _fit_chord(args, keep, ridge, z0, a, d, factor)
+    raw_te = _raw_residual(z, model, effects, mask, test)
+    return z, chi2, converged, raw_te
+
+
+def _normalise(jac, keep):
+    """The columns of the whitened Jacobian ``jac`` ``(n_tr, n)`` of the active unknowns
+    (``keep``, ``(n,)`` of 0/1) scaled to unit norm, inactive ones zeroed, and the norms ``(n,)``
+    (1 for a zero column)."""
+    norms = jnp.linalg.norm(jac * keep, axis=0)
+    d = jnp.where(norms > 0, norms, 1.0)
+    return jac * keep / d, d
+
+
+def _full_step(z, r, args, keep, ridge):
+    """The full Gauss–Newton step ``(n,)`` at ``z`` from the whitened residual ``r`` there, with
+    the Jacobian at ``z`` (columns normalised, ``ridge`` added to the normal equations)."""
+    an, dn = _normalise(jax.jacfwd(_white_residual)(z, args), keep)
+    return -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(an.T @ an + ridge), an.T @ r) / dn * keep
+
+
+def _converged(chi2_prev, chi2):
+    """Whether the last step changed χ² by at most :data:`GN_TOL` (relative, χ² below 1 absolute)."""
+    return jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
+
+
+def _chord_step(args, keep, a, d, factor, carry, _):
+    """One chord step (the Jacobian ``a`` at the start, its column norms ``d`` and the Cholesky
+    ``factor`` of its normal equations): the new ``(z, χ² before the step)``."""
+    z, _ = carry
+    r = _white_residual(z, args)
+    dz = -jax.scipy.linalg.cho_solve(factor, a.T @ r) / d * keep
+    return (z + dz, jnp.sum(r**2)), None
+
+
+def _newton_step(args, keep, ridge, carry, _):
+    """One full Gauss–Newton step (the Jacobian at ``z``): the new ``(z, χ² before the step)``."""
+    z, _ = carry
+    r = _white_residual(z, args)
+    dz = _full_step(z, r, args, keep, ridge)
+    return (z + dz, jnp.sum(r**2)), None
+
+
+def _fit_chord(args, keep, ridge, z0, a, d, factor):
+    """:data:`GN_STEPS` chord steps from ``z0 * keep`` (see :func:`_fit_gn`), redone by full
+    Gauss–Newton where they did not converge: ``(z (n,), χ², converged)``.
 
     NOTE (when the chord method fails). The contraction ``‖I − (J0ᵀJ0)⁻¹J0ᵀJ(z)‖`` is small only
     when no combination of the unknowns is nearly degenerate: an effect that the base parameters
@@ -193,61 +257,36 @@ def _fit_gn(model, effects, mask, train, w_tr, test, z0, jac0, profiles=None):
     held-out gap at 20× the noise floor and was not named). A fit whose chord steps did not
     converge is therefore redone by full Gauss–Newton from ``z0`` (the Jacobian at every step),
     under ``lax.cond`` inside the ``lax.map`` loops: only such fits pay for the Jacobians.
-
-    A model whose effects are far from linear (a frequency change over a long record) names
-    starting points (:func:`_start`, ``profiles``) and its own number of steps; its fits take
-    full Gauss–Newton steps from there, each shortened until it lowers χ² (:data:`LINE_SEARCH`).
     """
-    keep = _keep(model, effects, mask)
-    args = (model, effects, mask, train, w_tr)
-    ridge = jnp.diag(jnp.where(keep > 0, GN_RIDGE, 1.0))
-
-    def normalise(jac):
-        norms = jnp.linalg.norm(jac * keep, axis=0)
-        d = jnp.where(norms > 0, norms, 1.0)
-        return jac * keep / d, d
-
-    a, d = normalise(jac0)
-    factor = jax.scipy.linalg.cho_factor(a.T @ a + ridge)
-
-    def chord(carry, _):
-        z, _ = carry
-        r = _white_residual(z, args)
-        dz = -jax.scipy.linalg.cho_solve(factor, a.T @ r) / d * keep
-        return (z + dz, jnp.sum(r**2)), None
-
-    def newton(carry, _):
-        z, _ = carry
-        r = _white_residual(z, args)
-        an, dn = normalise(jax.jacfwd(_white_residual)(z, args))
-        dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(an.T @ an + ridge), an.T @ r) / dn * keep
-        return (z + dz, jnp.sum(r**2)), None
-
     def run(step):
         (z, chi2_prev), _ = jax.lax.scan(step, (z0 * keep, jnp.inf), None, length=GN_STEPS)
         chi2 = jnp.sum(_white_residual(z, args) ** 2)
-        return z, chi2, jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
+        return z, chi2, _converged(chi2_prev, chi2)
 
-    if model.effect_grid(effects) is not None:
-        def searched(carry, _):  # backtracking: the longest step that lowers χ², else none
-            z, _ = carry
-            r = _white_residual(z, args)
-            chi2 = jnp.sum(r**2)
-            an, dn = normalise(jax.jacfwd(_white_residual)(z, args))
-            dz = -jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(an.T @ an + ridge), an.T @ r) / dn * keep
-            trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
-            ok = jnp.isfinite(trial) & (trial < chi2)
-            return (z + dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0), chi2), None
+    z, chi2, converged = run(functools.partial(_chord_step, args, keep, a, d, factor))
+    return jax.lax.cond(converged, lambda: (z, chi2, converged),
+                        lambda: run(functools.partial(_newton_step, args, keep, ridge)))
 
-        z_start = _start(model, effects, mask, train, w_tr, z0, profiles)
-        (z, chi2_prev), _ = jax.lax.scan(searched, (z_start, jnp.inf), None, length=model.fit_steps or GN_STEPS)
-        chi2 = jnp.sum(_white_residual(z, args) ** 2)
-        converged = jnp.abs(chi2_prev - chi2) <= GN_TOL * jnp.maximum(chi2, 1.0)
-    else:
-        z, chi2, converged = run(chord)
-        z, chi2, converged = jax.lax.cond(converged, lambda: (z, chi2, converged), lambda: run(newton))
-    raw_te = _raw_residual(z, model, effects, mask, test)
-    return z, chi2, converged, raw_te
+
+def _searched_step(args, keep, ridge, carry, _):
+    """One full Gauss–Newton step shortened by backtracking: the longest of :data:`LINE_SEARCH`
+    that lowers χ², else none. Returns the new ``(z, χ² before the step)``."""
+    z, _ = carry
+    r = _white_residual(z, args)
+    chi2 = jnp.sum(r**2)
+    dz = _full_step(z, r, args, keep, ridge)
+    trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
+    ok = jnp.isfinite(trial) & (trial < chi2)
+    return (z + dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0), chi2), None
+
+
+def _fit_searched(args, keep, ridge, z_start, n_steps):
+    """The fit of a model with an effect grid: ``n_steps`` backtracking Gauss–Newton steps from
+    ``z_start`` (:func:`_start`): ``(z (n,), χ², converged)``."""
+    step = functools.partial(_searched_step, args, keep, ridge)
+    (z, chi2_prev), _ = jax.lax.scan(step, (z_start, jnp.inf), None, length=n_steps)
+    chi2 = jnp.sum(_white_residual(z, args) ** 2)
+    return z, chi2, _converged(chi2_prev, chi2)
 
 
 def _prepare(model, effects, train, test, z_base):

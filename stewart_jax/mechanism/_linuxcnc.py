@@ -151,7 +151,19 @@ def _num(x: float) -> str:
 
 
 def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_change) -> str:
-    lines = [
+    """The INI file's text: the machine's sections (:func:`_ini_machine`), ``[TRAJ]``
+    (:func:`_ini_traj`), the joints and the axes."""
+    lines = _ini_machine(name, home, unshifted_change) + _ini_traj(home)
+    lines += _ini_joints(joint_home, joint_limits) + _ini_axes(axis_limits, capped)
+    return "\n".join(lines)
+
+
+def _ini_machine(name: str, home, unshifted_change: float) -> list[str]:
+    """The INI's lines up to ``[KINS]``: the header on the shifted coordinates (``home``, mm and
+    degrees; ``unshifted_change``, the strut change of an unshifted command, mm), then
+    ``[EMC]``, ``[DISPLAY]``, ``[RS274NGC]``, ``[EMCMOT]``, ``[TASK]``, ``[HAL]``, ``[EMCIO]``,
+    ``[KINS]``."""
+    return [
         "# LinuxCNC configuration of a 6-UPS strut hexapod for genhexkins, written by stewart_jax.",
         "# Units: mm and degrees. World coordinates are the controller's, shifted from the library's pose:",
         "#   X Y Z = d + v0 (the platform frame's origin in the base frame), A B C = phi theta psi in degrees.",
@@ -197,6 +209,13 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_ch
         "KINEMATICS = genhexkins",
         "JOINTS = 6",
         "",
+    ]
+
+
+def _ini_traj(home) -> list[str]:
+    """The INI's ``[TRAJ]`` lines: the coordinates and units, ``HOME`` (``home``, mm and degrees)
+    and the placeholder velocities."""
+    return [
         "[TRAJ]",
         "COORDINATES = X Y Z A B C",
         "LINEAR_UNITS = mm",
@@ -211,6 +230,12 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_ch
         f"MAX_ANGULAR_VELOCITY = {_ANGULAR_MAX_VELOCITY_DEG_S}",
         "",
     ]
+
+
+def _ini_joints(joint_home, joint_limits) -> list[str]:
+    """The INI's ``[JOINT_0..5]`` lines: each strut's limits (``joint_limits``, ``(6, 2)``, mm) and
+    home length (``joint_home``, ``(6,)``, mm)."""
+    lines = []
     for n in range(6):
         lines += [
             f"[JOINT_{n}]",
@@ -227,6 +252,13 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_ch
             "HOME_SEQUENCE = 0",
             "",
         ]
+    return lines
+
+
+def _ini_axes(axis_limits, capped) -> list[str]:
+    """The INI's ``[AXIS_X..C]`` lines: each axis's limits (``axis_limits``, ``(6, 2)``, mm and
+    degrees), marked where ``capped`` (``(6,)`` bools) says the search's cap bounds them."""
+    lines = []
     for k, axis in enumerate("XYZABC"):
         unit = "mm" if k < 3 else "degrees"
         lines += [
@@ -239,7 +271,7 @@ def _ini(name, home, joint_home, joint_limits, axis_limits, capped, unshifted_ch
             f"MAX_ACCELERATION = {_JOINT_MAX_ACCELERATION_MM_S2}",
             "",
         ]
-    return "\n".join(lines)
+    return lines
 
 
 def _hal(setp: str, name: str) -> str:

@@ -37,6 +37,7 @@ give it its hyper-parameters as fields (validated in ``__check_init__`` with
 from __future__ import annotations
 
 import abc
+import functools
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -429,90 +430,124 @@ def _restarts(fn, plan: RestartSchedule, lower, upper, y0, key, max_evaluations:
     n_dim = lower.shape[-1]
     fn = nan_to_inf(fn)
     levels = plan.levels
-    n_levels = len(levels)
     lam0 = plan.first.step_evaluations(n_dim)[1]
     n_hist = max(1, int(max_evaluations) // lam0)  # no generation makes fewer than λ₀ calls
+    runs = _Runs(fn, lower, upper, y0, n_hist)
     need = jnp.asarray([s.init_evaluations(n_dim) + s.step_evaluations(n_dim)[1] + s.final_evaluations(n_dim)
                         for s in levels], jnp.int32)
     int0 = jnp.asarray(0, jnp.int32)
-
-    def one_run(solver, key, allowance, states, j, hist):
-        """A run of ``solver`` within ``allowance`` calls; its state replaces ``states[j]``."""
-        hist_f, hist_n, pos, used, best_before = hist
-        per_step = solver.step_evaluations(n_dim)[1] + solver.final_evaluations(n_dim)
-        k_init, k_steps = jax.random.split(key)
-        state = solver.init(fn, y0, lower, upper, k_init)
-
-        def going(c):
-            st, _, _, p = c
-            return ~solver.terminate(st)[0] & (st.n_evals + per_step <= allowance) & (p < n_hist)
-
-        def generation(c):
-            st, hf, hn, p = c
-            st = solver.step(fn, st, lower, upper, jax.random.fold_in(k_steps, p))
-            hf = hf.at[p].set(jnp.minimum(best_before, st.best_f))
-            hn = hn.at[p].set(used + jnp.asarray(st.n_evals, jnp.int32))
-            return st, hf, hn, p + 1
-
-        state, hist_f, hist_n, pos = lax.while_loop(going, generation, (state, hist_f, hist_n, pos))
-        state = solver.postprocess(fn, state, lower, upper)
-        done, why = solver.terminate(state)
-        status = RESULTS.where(done, why, RESULTS.max_steps_reached)
-        states = states[:j] + (state,) + states[j + 1:]
-        return states, (state.best_x, state.best_f, jnp.asarray(state.n_evals, jnp.int32), status,
-                        hist_f, hist_n, pos)
-
-    def blank(s):
-        shapes = jax.eval_shape(lambda: s.init(fn, y0, lower, upper, key))
-        return jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), shapes)
-
-    states = tuple(blank(s) for s in levels)
+    states = tuple(_blank_state(runs, s, key) for s in levels)
     hist = (jnp.full(n_hist, jnp.inf), jnp.zeros(n_hist, jnp.int32), int0, int0, jnp.asarray(jnp.inf))
-    states, (best_x, best_f, used, status, hist_f, hist_n, pos) = one_run(
-        plan.first, jax.random.fold_in(key, 0), max_evaluations, states, 0, hist)
+    states, (best_x, best_f, used, status, hist_f, hist_n, pos) = _one_run(
+        runs, plan.first, jax.random.fold_in(key, 0), max_evaluations, states, 0, hist)
     small, large = (used, int0) if plan.bipop else (int0, used)
-
-    def more(c):
-        return ~c["done"] & ~c["stop"]
-
-    def next_run(c):
-        remaining = max_evaluations - c["used"]
-        k_run, k_uv = jax.random.split(jax.random.fold_in(key, c["n_runs"]))
-        u, v = jax.random.uniform(k_uv, (2,), jnp.float64)
-        j_small = jnp.clip(jnp.floor(c["n_large"] * u * u + 0.5).astype(jnp.int32), 0, n_levels - 1)
-        allow_small = jnp.minimum(remaining, c["large"] // 2)
-        go_small = plan.bipop & (c["small"] < jnp.maximum(1, c["large"])) & (need[j_small] <= allow_small)
-        j_large = c["n_large"] + 1
-        j_large_c = jnp.minimum(j_large, n_levels - 1)
-        go_large = (j_large < n_levels) & (need[j_large_c] <= remaining)
-        j = jnp.where(go_small, j_small, j_large_c)
-        allowance = jnp.where(go_small, allow_small, remaining)
-        factor = jnp.where(go_small, 0.01**v, 1.0)
-
-        def run(c):
-            def branch(i):
-                def go(states, hist):
-                    return one_run(plan.small_step(levels[i], factor), k_run, allowance, states, i, hist)
-                return go
-
-            hist = (c["hist_f"], c["hist_n"], c["pos"], c["used"], c["best_f"])
-            states, (bx, bf, n, st, hf, hn, p) = lax.switch(j, [branch(i) for i in range(n_levels)],
-                                                           c["states"], hist)
-            better = bf < c["best_f"]
-            return dict(
-                c, states=states, best_x=jnp.where(better, bx, c["best_x"]),
-                best_f=jnp.where(better, bf, c["best_f"]), used=c["used"] + n, status=st,
-                hist_f=hf, hist_n=hn, pos=p, n_runs=c["n_runs"] + 1,
-                n_large=c["n_large"] + jnp.where(go_small, 0, 1).astype(jnp.int32),
-                small=c["small"] + jnp.where(go_small, n, 0), large=c["large"] + jnp.where(go_small, 0, n),
-                done=st == RESULTS.target_reached)
-
-        return lax.cond(go_small | go_large, run, lambda c: dict(c, stop=jnp.asarray(True)), c)
-
     c = dict(states=states, best_x=best_x, best_f=best_f, used=used, status=status, hist_f=hist_f,
              hist_n=hist_n, pos=pos, n_runs=jnp.asarray(1, jnp.int32), n_large=int0, small=small, large=large,
              done=status == RESULTS.target_reached, stop=jnp.asarray(False))
-    c = lax.while_loop(more, next_run, c)
+    c = lax.while_loop(lambda c: ~c["done"] & ~c["stop"],
+                       functools.partial(_next_run, runs, plan, need, key, max_evaluations), c)
+    return _restart_result(plan, c, n_hist)
+
+
+class _Runs(NamedTuple):
+    """What the runs of :func:`_restarts` share: the objective (NaN read as +inf), the box
+    ``(d,)``, the start ``y0`` (``(d,)`` or ``None``) and the history's length."""
+
+    fn: Callable
+    lower: Array
+    upper: Array
+    y0: Array | None
+    n_hist: int
+
+
+def _blank_state(runs: _Runs, solver: AbstractSolver, key):
+    """Zeros of the shape and dtype of ``solver``'s state: a level's state before any run."""
+    fn, lower, upper, y0, _ = runs
+    shapes = jax.eval_shape(lambda: solver.init(fn, y0, lower, upper, key))
+    return jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), shapes)
+
+
+def _one_run(runs: _Runs, solver, key, allowance, states, j, hist):
+    """A run of ``solver`` within ``allowance`` calls; its state replaces ``states[j]``.
+
+    ``hist`` is ``(hist_f, hist_n, pos, used, best_before)``: the history (``(n_hist,)``, best
+    value and cumulative calls), its next entry, the calls and the best value before this run.
+    Returns the states and ``(best_x, best_f, n_evals, status, hist_f, hist_n, pos)``."""
+    fn, lower, upper, y0, n_hist = runs
+    n_dim = lower.shape[-1]
+    hist_f, hist_n, pos, used, best_before = hist
+    per_step = solver.step_evaluations(n_dim)[1] + solver.final_evaluations(n_dim)
+    k_init, k_steps = jax.random.split(key)
+    state = solver.init(fn, y0, lower, upper, k_init)
+
+    def going(c):
+        st, _, _, p = c
+        return ~solver.terminate(st)[0] & (st.n_evals + per_step <= allowance) & (p < n_hist)
+
+    def generation(c):
+        st, hf, hn, p = c
+        st = solver.step(fn, st, lower, upper, jax.random.fold_in(k_steps, p))
+        hf = hf.at[p].set(jnp.minimum(best_before, st.best_f))
+        hn = hn.at[p].set(used + jnp.asarray(st.n_evals, jnp.int32))
+        return st, hf, hn, p + 1
+
+    state, hist_f, hist_n, pos = lax.while_loop(going, generation, (state, hist_f, hist_n, pos))
+    state = solver.postprocess(fn, state, lower, upper)
+    done, why = solver.terminate(state)
+    status = RESULTS.where(done, why, RESULTS.max_steps_reached)
+    states = states[:j] + (state,) + states[j + 1:]
+    return states, (state.best_x, state.best_f, jnp.asarray(state.n_evals, jnp.int32), status,
+                    hist_f, hist_n, pos)
+
+
+def _next_run(runs: _Runs, plan: RestartSchedule, need, key, max_evaluations: int, c: dict) -> dict:
+    """The loop state ``c`` of :func:`_restarts` after its next run (small or large, its level
+    and its share of the budget chosen), or with ``stop`` set where none fits; ``need``
+    (``(levels,)``): the calls of a level's initialisation and one generation."""
+    n_levels = len(plan.levels)
+    remaining = max_evaluations - c["used"]
+    k_run, k_uv = jax.random.split(jax.random.fold_in(key, c["n_runs"]))
+    u, v = jax.random.uniform(k_uv, (2,), jnp.float64)
+    j_small = jnp.clip(jnp.floor(c["n_large"] * u * u + 0.5).astype(jnp.int32), 0, n_levels - 1)
+    allow_small = jnp.minimum(remaining, c["large"] // 2)
+    go_small = plan.bipop & (c["small"] < jnp.maximum(1, c["large"])) & (need[j_small] <= allow_small)
+    j_large = c["n_large"] + 1
+    j_large_c = jnp.minimum(j_large, n_levels - 1)
+    go_large = (j_large < n_levels) & (need[j_large_c] <= remaining)
+    j = jnp.where(go_small, j_small, j_large_c)
+    allowance = jnp.where(go_small, allow_small, remaining)
+    factor = jnp.where(go_small, 0.01**v, 1.0)
+    run = functools.partial(_run_level, runs, plan, j, k_run, allowance, factor, go_small)
+    return lax.cond(go_small | go_large, run, lambda c: dict(c, stop=jnp.asarray(True)), c)
+
+
+def _run_level(runs: _Runs, plan: RestartSchedule, j, k_run, allowance, factor, go_small, c: dict) -> dict:
+    """The loop state ``c`` after a run on level ``j`` (a ``lax.switch`` over the levels) within
+    ``allowance`` calls, its initial step size scaled by ``factor``: the best point kept, the
+    calls added to the small or the large runs' count."""
+    levels = plan.levels
+
+    def branch(i):
+        def go(states, hist):
+            return _one_run(runs, plan.small_step(levels[i], factor), k_run, allowance, states, i, hist)
+        return go
+
+    hist = (c["hist_f"], c["hist_n"], c["pos"], c["used"], c["best_f"])
+    states, (bx, bf, n, st, hf, hn, p) = lax.switch(j, [branch(i) for i in range(len(levels))],
+                                                   c["states"], hist)
+    better = bf < c["best_f"]
+    return dict(
+        c, states=states, best_x=jnp.where(better, bx, c["best_x"]),
+        best_f=jnp.where(better, bf, c["best_f"]), used=c["used"] + n, status=st,
+        hist_f=hf, hist_n=hn, pos=p, n_runs=c["n_runs"] + 1,
+        n_large=c["n_large"] + jnp.where(go_small, 0, 1).astype(jnp.int32),
+        small=c["small"] + jnp.where(go_small, n, 0), large=c["large"] + jnp.where(go_small, 0, n),
+        done=st == RESULTS.target_reached)
+
+
+def _restart_result(plan: RestartSchedule, c: dict, n_hist: int) -> tuple[OptimiseResult, RestartState]:
+    """The result of :func:`_restarts` from its final loop state ``c`` (the history's entries
+    past ``pos`` set to the final values, the status decided) and its :class:`RestartState`."""
     written = jnp.arange(n_hist) < c["pos"]
     hist_f = jnp.where(written, c["hist_f"], c["best_f"])
     hist_n = jnp.where(written, c["hist_n"], c["used"])

@@ -319,6 +319,25 @@ def run_study(
     _check_study_args(methods, n_trials, plan, sigma_um, sigma_arcsec, half_width, chunk_size, n_devices, first_trial)
     if n_devices > len(jax.local_devices()):
         raise ValueError(f"n_devices={n_devices} but JAX sees {len(jax.local_devices())} local device(s)")
+    nominal, actual, paper = _study_mechanisms(nominal, actual)
+    options = method_options or {}
+    config = {
+        "nominal": nominal.to_dict(), "actual": actual.to_dict(),
+        "plan": plan, "n_trials": n_trials, "seed": seed, "sigma_um": sigma_um,
+        "sigma_arcsec": sigma_arcsec, "tracker": tracker, "half_width_mm": half_width,
+        "method_options": options, "first_trial": first_trial,
+    }
+    rows, warnings = _study_rows(methods, options, config, nominal, actual, chunk_size or n_trials, n_devices,
+                                 checkpoint, keep_trials, log)
+    return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
+            "cost_unit": f"{nominal.reading_unit}^2", "n_devices": n_devices, "rows": rows, "warnings": warnings,
+            "paper_table2": PAPER_TABLE2 if paper else None}
+
+
+def _study_mechanisms(nominal: AbstractMechanism | None, actual: AbstractMechanism | None
+                      ) -> tuple[AbstractMechanism, AbstractMechanism, bool]:
+    """The study's nominal and actual mechanisms (both given, of one family, or neither: the
+    paper's Table 1) and whether they are the paper's."""
     if (nominal is None) != (actual is None):
         raise ValueError("give both nominal and actual mechanisms, or neither (the paper's Table 1)")
     if nominal is None:
@@ -327,16 +346,17 @@ def run_study(
     if type(nominal) is not type(actual):
         raise ValueError(f"nominal ({type(nominal).__name__}) and actual ({type(actual).__name__}) "
                          "must be the same mechanism family")
-    options = method_options or {}
-    config = {
-        "nominal": nominal.to_dict(), "actual": actual.to_dict(),
-        "plan": plan, "n_trials": n_trials, "seed": seed, "sigma_um": sigma_um,
-        "sigma_arcsec": sigma_arcsec, "tracker": tracker, "half_width_mm": half_width,
-        "method_options": options, "first_trial": first_trial,
-    }
+    return nominal, actual, paper
+
+
+def _study_rows(methods, options, config, nominal, actual, chunk, n_devices, checkpoint, keep_trials, log
+                ) -> tuple[dict[str, Any], list[str]]:
+    """The rows of :func:`run_study`'s result, one per method (the uncalibrated nominal first)
+    under its label, over the trials of ``config``, and the warnings of gross misfits; the
+    trials the checkpoint holds are kept, the others computed."""
+    n_trials, first_trial = config["n_trials"], config["first_trial"]
     travel = tuple(float(h) for h in reachable_travel(nominal))  # once, not per chunk and method
-    chunk = chunk_size or n_trials
-    keys = trial_keys(seed, n_trials, first_trial)
+    keys = trial_keys(config["seed"], n_trials, first_trial)
     state = _load_checkpoint(checkpoint, config)
     wanted = {str(i) for i in range(first_trial, first_trial + n_trials)}
     kept = {m: len(wanted & set(t)) for m, t in state["trials"].items() if m != BEFORE}
@@ -347,26 +367,14 @@ def run_study(
     indices = [str(first_trial + i) for i in range(n_trials)]
     rows: dict[str, Any] = {}
     warnings: list[str] = []
-    noise_mm = 0.0 if tracker else _reading_noise_rms_mm(nominal, sigma_um, sigma_arcsec)
+    noise_mm = (0.0 if config["tracker"] else
+                _reading_noise_rms_mm(nominal, config["sigma_um"], config["sigma_arcsec"]))
     representable = _truth_representable(nominal, actual, travel)
-    n_poses = 8 if plan == "paper8" else 120
+    n_poses = 8 if config["plan"] == "paper8" else 120
     for method in [BEFORE, *methods]:
         calibrate = _calibrator(method, json.dumps(options.get(method, {}), sort_keys=True), n_devices)
-        seconds: list[float] = []
-        for start in range(0, n_trials, chunk):
-            stop = min(start + chunk, n_trials)
-            todo = [i for i in range(start, stop) if indices[i] not in state["trials"].get(method, {})]
-            if not todo:
-                continue
-            out = _run_chunk(method, calibrate, keys[np.asarray(todo)], nominal, actual, travel, config, n_devices)
-            done = state["trials"].setdefault(method, {})
-            for j, i in enumerate(todo):
-                done[indices[i]] = {k: out[k][j] for k in PER_TRIAL_KEYS}
-            seconds.append(out["seconds"])
-            unsaved.setdefault(method, []).append(out["seconds"])
-            _save_checkpoint(checkpoint, config, state, unsaved)
-            if method != BEFORE:
-                log(f"  {method}: trials {stop}/{n_trials} ({out['seconds']:.1f} s for {len(todo)} trials)")
+        seconds = _compute_trials(method, calibrate, keys, indices, chunk, state, unsaved, nominal, actual, travel,
+                                  config, n_devices, checkpoint, log)
         done = state["trials"].get(method, {})
         merged = {k: [done[i][k] for i in indices] for k in PER_TRIAL_KEYS}
         label = "Before calibration" if method == BEFORE else method_label(method)
@@ -379,9 +387,32 @@ def run_study(
             if gross:
                 warnings.append(_misfit_warning(method, merged, ratio, representable))
                 log(f"WARNING: {warnings[-1]}")
-    return {**config, "components": list(COMPONENTS), "units": ["um", "um", "um", "arcsec", "arcsec", "arcsec"],
-            "cost_unit": f"{nominal.reading_unit}^2", "n_devices": n_devices, "rows": rows, "warnings": warnings,
-            "paper_table2": PAPER_TABLE2 if paper else None}
+    return rows, warnings
+
+
+def _compute_trials(method, calibrate, keys, indices, chunk, state, unsaved, nominal, actual, travel, config,
+                    n_devices, checkpoint, log) -> list[float]:
+    """The trials of ``method`` (``indices``, their ``keys``) that the checkpoint ``state`` lacks,
+    ``chunk`` at a time: each trial's numbers stored in ``state`` under its index, each chunk's
+    seconds added to ``unsaved``, the checkpoint saved after every chunk. Returns the seconds of
+    the chunks computed."""
+    n_trials = len(indices)
+    seconds: list[float] = []
+    for start in range(0, n_trials, chunk):
+        stop = min(start + chunk, n_trials)
+        todo = [i for i in range(start, stop) if indices[i] not in state["trials"].get(method, {})]
+        if not todo:
+            continue
+        out = _run_chunk(method, calibrate, keys[np.asarray(todo)], nominal, actual, travel, config, n_devices)
+        done = state["trials"].setdefault(method, {})
+        for j, i in enumerate(todo):
+            done[indices[i]] = {k: out[k][j] for k in PER_TRIAL_KEYS}
+        seconds.append(out["seconds"])
+        unsaved.setdefault(method, []).append(out["seconds"])
+        _save_checkpoint(checkpoint, config, state, unsaved)
+        if method != BEFORE:
+            log(f"  {method}: trials {stop}/{n_trials} ({out['seconds']:.1f} s for {len(todo)} trials)")
+    return seconds
 
 
 def _reading_noise_rms_mm(nominal: AbstractMechanism, sigma_um: float, sigma_arcsec: float) -> float:
