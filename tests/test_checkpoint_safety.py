@@ -88,7 +88,7 @@ def _numbers(path):
     return {name: {k: row[k] for k in keys} for name, row in rows.items()}
 
 
-@pytest.mark.slow  # a study killed, resumed and run again uninterrupted: ~60 s
+@pytest.mark.slow  # a study killed, resumed and run again uninterrupted: 4 min on the loaded 2-core machine
 def test_a_study_killed_with_sigkill_loses_at_most_the_chunk_in_flight(tmp_path, capsys):
     """Class: ``kill -9`` (no handler runs) at a moment between and during chunk writes. The
     checkpoint is a whole JSON file with every finished trial, and the resumed run's numbers are
