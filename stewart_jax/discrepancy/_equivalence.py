@@ -52,11 +52,18 @@ def signature(jac_tr: np.ndarray, nb: int, cols: np.ndarray, z_effect: np.ndarra
     return s - q_g @ (q_g.T @ s)
 
 
-def outside(jac_tr: np.ndarray, nb: int, cols_a: np.ndarray, sig: np.ndarray) -> float:
-    """``χ²_out``: the squared norm of ``sig`` outside the span of base + the columns ``cols_a``."""
-    q = basis(np.concatenate([jac_tr[:, :nb], jac_tr[:, cols_a]], axis=1))
+def encompassed(base: np.ndarray, other: np.ndarray, sig: np.ndarray, own: np.ndarray, level: float,
+                scale2: float) -> tuple[float, bool]:
+    """``(χ²_out, reproduced)``: the squared norm of the signature ``sig`` outside the span of the
+    ``base`` and ``other`` columns (whitened), and whether ``other`` reproduces it — ``χ²_out``
+    over the noise variance factor ``scale2`` below the χ² critical value at ``level``, with the
+    degrees of freedom of ``own`` (the columns behind ``sig``, base projected out) outside that
+    span (module docstring)."""
+    q = basis(np.concatenate([base, other], axis=1))
     r = sig - q @ (q.T @ sig)
-    return float(r @ r)
+    chi2_out = float(r @ r)
+    df = max(n_identifiable(q, own), 1)
+    return chi2_out, bool(chi2_out / scale2 < stats.chi2.ppf(1 - level, df))
 
 
 def equivalences(
@@ -76,12 +83,11 @@ def equivalences(
         for key, s, cols_other, cols_own in (("outside_named", sig_c, slices[named], slices[c]),
                                              ("named_outside", sig_a, slices[c], slices[named])):
             size = float(s @ s)
-            chi2_out = outside(jac_tr, nb, cols_other, s)
-            q_o = basis(np.concatenate([jac_tr[:, :nb], jac_tr[:, cols_other]], axis=1))
-            df = max(n_identifiable(q_o, jac_tr[:, cols_own] - q_g @ (q_g.T @ jac_tr[:, cols_own])), 1)
+            own = jac_tr[:, cols_own] - q_g @ (q_g.T @ jac_tr[:, cols_own])
+            chi2_out, reproduced = encompassed(jac_tr[:, :nb], jac_tr[:, cols_other], s, own, level, scale2)
             row[f"{key}_share"] = chi2_out / size if size > 0 else 0.0
             row[f"{key}_chi2"] = chi2_out / scale2
-            row[f"{key}_reproduced"] = bool(chi2_out / scale2 < stats.chi2.ppf(1 - level, df))
+            row[f"{key}_reproduced"] = reproduced
         row["equivalent"] = row["outside_named_reproduced"] and row["named_outside_reproduced"]
         out.append(row)
     return out

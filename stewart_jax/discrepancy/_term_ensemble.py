@@ -30,7 +30,6 @@ from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-from scipy import stats
 
 from ._discovery import (
     DiscoveredTerms,
@@ -45,8 +44,9 @@ from ._discovery import (
     reading_factor,
     term_units,
 )
+from ._equivalence import encompassed
 from ._statistics import bic, heldout_chi2, heldout_p, nested_p
-from ._subspace import basis, n_identifiable
+from ._subspace import basis
 
 N_SPLITS = 5
 """Re-splits of the training rows on which the selection is repeated."""
@@ -224,7 +224,6 @@ def _term_reports(terms: DiscoveredTerms, steps: Sequence[dict], coef, std, mode
     return out
 
 
-
 def reproduced_by(terms: DiscoveredTerms, fit: TermFit, inp: TermInputs,
                   candidates: Sequence[tuple[str, np.ndarray]]) -> str | None:
     """The first registered candidate that reproduces the kept terms' fitted signature (step 5 of
@@ -237,10 +236,5 @@ def reproduced_by(terms: DiscoveredTerms, fit: TermFit, inp: TermInputs,
     q_g = basis(inp.jac_tr)
     own = cols - q_g @ (q_g.T @ cols)
     sig = own @ fit.coef
-    for name, cand in candidates:
-        q = basis(np.concatenate([inp.jac_tr, cand], axis=1))
-        out = sig - q @ (q.T @ sig)
-        df = max(n_identifiable(q, own), 1)
-        if float(out @ out) / inp.scale2 < stats.chi2.ppf(1 - inp.alpha, df):
-            return name
-    return None
+    return next((name for name, cand in candidates
+                 if encompassed(inp.jac_tr, cand, sig, own, inp.alpha, inp.scale2)[1]), None)
