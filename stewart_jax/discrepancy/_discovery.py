@@ -74,7 +74,6 @@ NYQUIST_SAMPLES = 2.0
 """The shortest period tried: this many times the readings' median spacing (Nyquist)."""
 
 
-
 class SearchData(Protocol):
     """The data contract of a model that declares ``open_search``: the factors its rows offer the
     search, each ``None`` where the data do not carry it (a class attribute ``None`` where the
@@ -130,16 +129,10 @@ def reading_factor(model: AbstractDiscrepancyModel) -> tuple[float, str]:
     return READING_FACTOR_UNITS[unit]
 
 
-def time_unit(data: SearchData) -> tuple[str, float]:
-    """``(unit, seconds per unit)`` of the ``time`` factor (hours for a measurement session,
-    seconds for a cabin record)."""
-    return data.time_unit
-
-
 def _factor_x(spec: TermSpec, reading, data, xp=np):
     """``(m, k)`` values of the term's factor: ``reading`` in the factor's unit (the caller
     scales it: :func:`reading_factor`), poses in mm and degrees, temperature minus 20 °C, time
-    in :func:`time_unit`."""
+    in the data's ``time_unit``."""
     m, k = reading.shape
     if spec.factor == "reading":
         return reading
@@ -148,7 +141,7 @@ def _factor_x(spec: TermSpec, reading, data, xp=np):
     if spec.factor == "temperature":
         return xp.broadcast_to(xp.asarray(data.temperature)[:, None] - T_REF_C, (m, k))
     if spec.factor == "time":
-        return xp.broadcast_to(xp.asarray(data.time)[:, None] / time_unit(data)[1], (m, k))
+        return xp.broadcast_to(xp.asarray(data.time)[:, None] / data.time_unit[1], (m, k))
     _, i, f, _ = next(p for p in _POSE if p[0] == spec.factor)
     return xp.broadcast_to(xp.asarray(data.poses)[:, i : i + 1] * f, (m, k))
 

@@ -359,6 +359,7 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
     model, b, fits = ds.model, ds.b, ds.fits
     w_tr, w_te, raw_te = np.asarray(fits.w_tr[b]), np.asarray(fits.w_te[b]), np.asarray(fits.raw_te[b])
     raw_tr = np.asarray(_raw_base_residual(model, base_fm.base, ds.train))
+    jac_tr = np.asarray(fits.jac_tr[b])
     gap_before = float(np.sqrt(np.mean(raw_te[0] ** 2)) * model.report_factor)
     inp = TermInputs(
         model=model, train=ds.train, test=ds.test,
@@ -366,13 +367,12 @@ def _open_search(ds: DataSet, dec: Decision, base_fm: FittedModel) -> _Discovere
         reading_te=np.asarray(model.observed(ds.test)) - raw_te[0],
         white_tr=np.einsum("mij,mj->mi", w_tr, raw_tr).reshape(-1),
         white_te=np.einsum("mij,mj->mi", w_te, raw_te[0]).reshape(-1),
-        raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=np.asarray(fits.jac_tr[b])[:, :ds.nb],
+        raw_te=raw_te[0], w_tr=w_tr, w_te=w_te, jac_tr=jac_tr[:, :ds.nb],
         jac_te=np.asarray(fits.jac_te[b])[:, :ds.nb], dof0=dec.dof0, scale2=dec.scale2, known=ds.known,
         alpha=ds.alpha,
     )
     terms, discovered, term_fit, passed = earn_place(inp, gap_before)
-    jac_full = np.asarray(fits.jac_tr[b])
-    registered = [(c.effect, jac_full[:, ds.slices[i]]) for i, c in enumerate(dec.cands) if c.identifiable_rank > 0]
+    registered = [(c.effect, jac_tr[:, ds.slices[i]]) for i, c in enumerate(dec.cands) if c.identifiable_rank > 0]
     again = reproduced_by(terms, term_fit, inp, registered)
     if again is not None:
         return _Discovered([], None, None, (
