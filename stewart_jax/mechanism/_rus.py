@@ -159,9 +159,8 @@ class RUSMechanism(AbstractMechanism):
                             crank_limits=self.crank_limits, travel=self.travel, param_set=self.param_set)
 
     def with_param_set(self, param_set: str) -> RUSMechanism:
-        """The same mechanism calibrated with the crank zeros (``"54"``) or without (``"48"``)."""
-        if param_set not in PARAM_SETS:
-            raise ValueError(f"6-RUS param_set must be one of {PARAM_SETS}, got {param_set!r}")
+        """The same mechanism calibrated with the crank zeros (``"54"``) or without (``"48"``); the
+        constructor refuses any other set."""
         return RUSMechanism(self.base, self.platform, self.v0, self.crank_lengths, self.rod_lengths, self.azimuth,
                             self.crank_zero, crank_limits=self.crank_limits, travel=self.travel,
                             param_set=param_set)
