@@ -20,7 +20,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _common import write_results  # noqa: E402
 
 from stewart_jax.calibration import plan_poses, reachable_travel  # noqa: E402
-from stewart_jax.calibration._assessment import _determination  # noqa: E402
+from stewart_jax.calibration._assessment import _determination, _whitened_model  # noqa: E402
 from stewart_jax.calibration._determined import determine, prior_scale  # noqa: E402
 from stewart_jax.calibration._identifiability import kinematic_snapshot  # noqa: E402
 from stewart_jax.calibration._points import POINTS_DETERMINED_STD, _jacobian_at, _problem, start_values  # noqa: E402
@@ -48,7 +48,8 @@ def main():
             poses = plan_poses(plan, jax.random.key(0), reachable_travel(nominal))
             row = {"preset": name, "family": nominal.family, "plan": plan, "n_params": nominal.n_params}
             for s in (0.1, 1.0):
-                det = _determination(kinematic_snapshot(nominal, np.asarray(poses), s, s), nominal.param_units)[0]
+                det = _determination(_whitened_model(kinematic_snapshot(nominal, np.asarray(poses), s, s),
+                                                     nominal.n_params), nominal.param_units)
                 row[f"pose_determined_sigma_{s}"] = det.n_determined
                 held = det.singular_values[det.n_determined:]
                 row[f"pose_worst_held_std_sigma_{s}"] = float(1 / held.min()) if len(held) and held.min() > 0 \

@@ -159,17 +159,18 @@ def assess_calibration(
                                      float("nan"), 6 * m - n, float("nan"), float("nan"), warnings,
                                      np.full((n, n), np.nan))
     rep = report_from_arrays(snap.noise, snap.jacobian, rtol=RANK_RTOL)
+    wm = _whitened_model(snap, n)
     identifiable, std, cov, text = _identifiable(rep, calibrated.param_names, n)
     if text is not None:
         warnings.append(text)
     held, n_det = False, None
     if rep.rank == n:
-        held, n_det, found = _held_directions(calibrated, nominal, snap, poses, sigma_um, sigma_arcsec)
+        held, n_det, found = _held_directions(calibrated, nominal, wm, poses, sigma_um, sigma_arcsec)
         if found is not None:
             identifiable, std, cov, text = found
             warnings.append(text)
     chi2, dof, p, ratio, gross, poor, fit_warnings = _goodness_of_fit(
-        snap, residuals, rep.rank, calibrated.reading_unit, sigma_um, sigma_arcsec)
+        wm, residuals, rep.rank, calibrated.reading_unit, sigma_um, sigma_arcsec)
     warnings += fit_warnings
     # a gross misfit outranks rank deficiency: the numbers are wrong, not only under-determined
     undetermined = rep.rank < n or (not held and not np.all(identifiable))
@@ -216,29 +217,33 @@ def _identifiable(rep, names: tuple[str, ...], n: int) -> tuple[np.ndarray, np.n
     return identifiable, std, cov, text
 
 
-def _held_directions(calibrated, nominal, snap: KinematicSnapshot, poses, sigma_um, sigma_arcsec):
+def _held_directions(calibrated, nominal, wm: _Whitened, poses, sigma_um, sigma_arcsec):
     """At full rank: whether the calibration held the directions the data do not determine at
     ``nominal`` (``False`` without ``nominal``), how many directions the data determine (judged at
     ``nominal`` when given, else at ``calibrated``), and, when some are not determined,
-    :func:`_held_report`'s ``identifiable``, ``param_std``, ``param_cov`` and warning (else ``None``)."""
+    :func:`_held_report`'s ``identifiable``, ``param_std``, ``param_cov`` and warning (else ``None``).
+    ``wm``: the calibrated mechanism's whitened model, whose covariance is reported."""
     n = calibrated.n_params
-    det, jac, noise = _determination(snap, calibrated.param_units)
-    if nominal is not None:  # the directions hold_undetermined held
-        det = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)[0]
+    if nominal is None:
+        det = _determination(wm, calibrated.param_units)
+    else:  # the directions hold_undetermined held
+        det = _determination(_whitened_model(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), n),
+                             nominal.param_units)
     if det.n_determined == n:
         return False, det.n_determined, None
     held = nominal is not None and _is_held(det, np.asarray(calibrated.params) - np.asarray(nominal.params))
-    return held, det.n_determined, _held_report(det, jac, noise, calibrated.param_names, calibrated.param_units, held)
+    return held, det.n_determined, _held_report(det, wm.jac, wm.noise, calibrated.param_names,
+                                                calibrated.param_units, held)
 
 
-def _goodness_of_fit(snap: KinematicSnapshot, residuals, rank: int, reading_unit: str, sigma_um, sigma_arcsec):
+def _goodness_of_fit(wm: _Whitened, residuals, rank: int, reading_unit: str, sigma_um, sigma_arcsec):
     """The fit's tests against the stated pose noise: ``χ²``, its degrees of freedom, the upper
     tail's p-value, ``sqrt(χ²/dof)`` (both NaN without degrees of freedom), whether the fit is a
     gross misfit, whether it is poor (a gross misfit or either tail below :data:`FIT_P_VALUE`),
     and the warnings, in that order. ``residuals``: ``Float[np.ndarray, "m 6"]`` (the readings' unit)."""
     m = residuals.shape[0]
     warnings = []
-    chi2, whitened = _gls_chi2(snap, residuals, rank)
+    chi2, whitened = _gls_chi2(wm, residuals, rank)
     dof = 6 * m - rank
     gross = float(np.sqrt(whitened / (6 * m)))
     rms_reading = report_factor(reading_unit) * float(np.sqrt(np.mean(residuals**2)))
@@ -266,15 +271,29 @@ def _goodness_of_fit(snap: KinematicSnapshot, residuals, rank: int, reading_unit
     return chi2, dof, p, ratio, gross > GROSS_MISFIT_RATIO, poor, warnings
 
 
-def _determination(snap: KinematicSnapshot, param_units: tuple[str, ...]):
-    """The determined directions of the pose model at a mechanism's :class:`KinematicSnapshot`,
-    its stroke Jacobian ``(m, 6, n)`` and the stroke noise covariance ``(m, 6, 6)`` (whitening by
-    the pose noise through ``J_P``)."""
-    m, n = len(snap.reachable), len(param_units)
+class _Whitened(NamedTuple):
+    """The pose model of a :class:`KinematicSnapshot` whitened by the pose noise through ``J_P``:
+    the stroke Jacobian ``jac`` ``(m, 6, n)``, the stroke noise covariance ``noise`` ``(m, 6, 6)``
+    (with a tiny ridge that keeps a pose whose covariance is singular, one σ zero, whitenable),
+    its Cholesky factors ``chol`` ``(m, 6, 6)`` and the whitened Jacobian ``jw`` ``(6m, n)``."""
+
+    jac: np.ndarray
+    noise: np.ndarray
+    chol: np.ndarray
+    jw: np.ndarray
+
+
+def _whitened_model(snap: KinematicSnapshot, n: int) -> _Whitened:
+    m = len(snap.reachable)
     noise = snap.noise + np.eye(6) * 1e-12 * np.trace(snap.noise, axis1=1, axis2=2)[:, None, None] / 6
     jac = snap.jacobian.reshape(m, 6, n)
-    jw = np.linalg.solve(np.linalg.cholesky(noise), jac).reshape(6 * m, n)
-    return within_prior(determine(jw, prior_scale(param_units)), jac, noise), jac, noise
+    chol = np.linalg.cholesky(noise)
+    return _Whitened(jac, noise, chol, np.linalg.solve(chol, jac).reshape(6 * m, n))
+
+
+def _determination(wm: _Whitened, param_units: tuple[str, ...]) -> Determination:
+    """The determined directions of a whitened pose model (``_determined.py``)."""
+    return within_prior(determine(wm.jw, prior_scale(param_units)), wm.jac, wm.noise)
 
 
 HELD_TOL = 1e-3
@@ -314,7 +333,8 @@ def hold_undetermined(
     (``_determined.py``): the least-squares fit of the stroke residual over the determined
     directions, from the projection of ``params``. The determination is made at ``nominal``."""
     poses = np.asarray(data.poses)
-    det, _, _ = _determination(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.param_units)
+    det = _determination(_whitened_model(kinematic_snapshot(nominal, poses, sigma_um, sigma_arcsec), nominal.n_params),
+                         nominal.param_units)
     u0 = np.asarray(nominal.params)
     if det.n_determined == nominal.n_params:
         return np.asarray(params)
@@ -345,18 +365,11 @@ def _implied_pose_errors(mechanism, poses, readings):
     return jnp.linalg.solve(jac, (readings - predicted)[..., None])[..., 0]
 
 
-def _gls_chi2(snap: KinematicSnapshot, residuals, rank) -> tuple[float, float]:
+def _gls_chi2(wm: _Whitened, residuals, rank) -> tuple[float, float]:
     """``min_δ |W (r − A δ)|²`` (the whitened residual with every parameter direction removed)
-    and ``|W r|²`` (the whitened residual itself), at the calibrated mechanism's snapshot."""
-    m, n = residuals.shape[0], snap.jacobian.shape[1]
-    cov, a = snap.noise, snap.jacobian
-    # a tiny ridge keeps a pose whose covariance is singular (one sigma zero) whitenable
-    cov = cov + np.eye(6) * 1e-12 * np.trace(cov, axis1=1, axis2=2)[:, None, None] / 6
-    chol = np.linalg.cholesky(cov)
-    rw = np.linalg.solve(chol, residuals[..., None])[..., 0].reshape(-1)
-    a = a.reshape(m, 6, n)
-    aw = np.linalg.solve(chol, a).reshape(6 * m, n)
-    u, _, _ = np.linalg.svd(aw, full_matrices=False)
+    and ``|W r|²`` (the whitened residual itself), in the calibrated mechanism's whitened model."""
+    rw = np.linalg.solve(wm.chol, residuals[..., None])[..., 0].reshape(-1)
+    u, _, _ = np.linalg.svd(wm.jw, full_matrices=False)
     u = u[:, :rank]
     whitened = float(rw @ rw)
     return max(whitened - float(np.sum((u.T @ rw) ** 2)), 0.0), whitened  # ≥ 0 up to rounding
