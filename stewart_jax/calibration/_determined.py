@@ -54,16 +54,15 @@ class Determination(NamedTuple):
     - ``scale``: ``(n,)`` the prior scales; ``singular_values``: ``(n,)`` of ``J_S``, descending.
     - ``determined``: ``(k, n)`` the determined directions ``v_i`` (orthonormal, scaled units).
     - ``held``: ``(n − k, n)`` the undetermined ones, held at nominal.
-    - ``threshold``: :func:`determine`'s (prior scales).
+    - ``threshold``: the largest data std of a determined direction, in prior scales
+      (:func:`determine`'s); also the std a held direction keeps about the truth (:func:`total_std`).
     """
 
     scale: np.ndarray
     singular_values: np.ndarray
     determined: np.ndarray
     held: np.ndarray
-    threshold: float = 1.0
-    """The largest data std of a determined direction, in prior scales; also the std a held
-    direction keeps about the truth (:func:`total_std`)."""
+    threshold: float
 
     @property
     def n_determined(self) -> int:
