@@ -179,3 +179,44 @@ def test_a_report_never_says_the_gap_closed_when_it_grew():
     assert "no discrepancy detected" in text and "22.3× below the noise floor" in text and "metres for mm" in text
     for ok in (dataclasses.replace(quiet, gap_before=700.0), dataclasses.replace(quiet, noise_estimated=True)):
         assert "below the noise floor" not in "\n".join(ok.summary())
+
+
+def _decay_record(path, scale_position, scale_rotation, sigma_mm=1.0, sigma_deg=0.01, seed=0):
+    # a damped swing at 0.15 Hz from 20 mm and 0.02°, 10 Hz for 60 s, with the tracker's noise,
+    # written in mm and degrees times the given scales (the unit slip under test)
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 60.0, 0.1)
+    swing = np.exp(-0.005 * 2 * np.pi * 0.15 * t) * np.cos(2 * np.pi * 0.15 * t)
+    pos = np.outer(swing, [20.0, 10.0, 5.0]) + sigma_mm * rng.standard_normal((t.size, 3))
+    rot = np.outer(swing, [0.02, 0.01, 0.02]) + sigma_deg * rng.standard_normal((t.size, 3))
+    table = np.column_stack([t, pos * scale_position, rot * scale_rotation])
+    np.savetxt(path, table, delimiter=",", header="time,x,y,z,rx,ry,rz", comments="")
+    return path
+
+
+@pytest.mark.parametrize("label, scales, says", [
+    ("positions in metres", (1e-3, 1.0), "a record in metres"),
+    ("rotations in radians", (1.0, np.pi / 180), "a record in radians"),
+    ("both in metres and radians", (1e-3, np.pi / 180), "a record in metres"),
+    ("positions in µm", (1e3, 1.0), "a record in µm"),
+    ("rotations in arcseconds", (1.0, 3600.0), "arcseconds"),
+])
+def test_a_cabin_record_in_the_wrong_unit_is_refused_before_any_fit(label, scales, says, tmp_path, capsys):
+    # The sizes contradict the units by the record's own noise (a measured value cannot vary less
+    # than its noise) or by what a free vibration reaches; refused before the modal model is built.
+    path = _decay_record(tmp_path / "r.csv", *scales)
+    assert cli_main(["diagnose", str(path), "--geometry", "fast"]) == 2
+    err = capsys.readouterr().err
+    assert says in err, (label, err)
+
+
+def test_a_record_in_the_right_units_passes_the_size_check(tmp_path):
+    from stewart_jax.discrepancy import read_cabin_record
+    from stewart_jax.discrepancy._cabin_record import check_amplitude
+
+    data = read_cabin_record(_decay_record(tmp_path / "r.csv", 1.0, 1.0))
+    check_amplitude(data, 1.0, np.deg2rad(0.01) * 1e3)
+    # a smaller stated σ (a better tracker) raises nothing either; a σ larger than every motion does
+    check_amplitude(data, 0.1, np.deg2rad(0.001) * 1e3)
+    with pytest.raises(ValueError, match="--sigma-um"):
+        check_amplitude(data, 100.0, np.deg2rad(0.01) * 1e3)

@@ -106,6 +106,15 @@ MIN_PERIODS = 2.0
 MAX_JITTER = 0.05
 """Largest deviation of a sampling step from the median step, relative (uneven sampling beyond
 it is refused)."""
+AMPLITUDE_FLOOR = 0.5
+"""A record's pose group (position, rotation) whose largest standard deviation is below this
+share of the noise σ contradicts its own noise (every measured value carries it): the wrong unit
+(metres, radians) or too large a σ."""
+MAX_POSITION_STD_MM = 10_000.0
+"""Largest standard deviation of a recorded position coordinate (mm) a cabin's free vibration can
+have (its cables hold it within a few metres of its static pose): beyond it the unit is wrong."""
+MAX_ROTATION_STD_DEG = 30.0
+"""Largest standard deviation of a recorded rotation component (degrees) of a free vibration."""
 DEFAULT_SEGMENTS = 8
 """Segments per cable of the lumped-mass cables behind ``cable_inertia`` (the ``--segments`` of
 ``stewart-jax diagnose --geometry fast``)."""
@@ -415,7 +424,8 @@ def cabin_record_model(
     rotation component, ″). ``modal`` reuses a :func:`~stewart_jax.cable_robot.cabin_modal_model`
     built for the same position (it is the expensive part: the lumped statics and modes).
 
-    Raises ``ValueError`` (before any fit) for a record sampled unevenly (steps deviating from
+    Raises ``ValueError`` (before any fit) for a record whose size contradicts its units or noise
+    (:func:`check_amplitude`), sampled unevenly (steps deviating from
     the median by more than :data:`MAX_JITTER`), too slowly to resolve the base model's highest
     mode (Nyquist), or too short to resolve its lowest (fewer than :data:`MIN_PERIODS` periods).
     """
@@ -424,6 +434,8 @@ def cabin_record_model(
     for name, s in (("sigma_um", sigma_um), ("sigma_arcsec", sigma_arcsec)):
         if not (np.isfinite(s) and s > 0):
             raise ValueError(f"{name} must be a finite number > 0, got {s}")
+    sigma_mm, sigma_mrad = sigma_um * 1e-3, sigma_arcsec * math.pi / 648.0
+    check_amplitude(data, sigma_mm, sigma_mrad)
     params = paper_fast_params() if params is None else params
     if modal is None:
         modal = cabin_modal_model(params, position, segments)
@@ -433,12 +445,40 @@ def cabin_record_model(
     t = np.asarray(data.time)
     check_memory(len(t), 1.0 / float(np.median(np.diff(t))))
     duration = float(t[-1] - t[0])
-    sigma_mm, sigma_mrad = sigma_um * 1e-3, sigma_arcsec * math.pi / 648.0
     f_rec, weight, cutoff = record_frequencies(data, modal, sigma_mm, sigma_mrad)
     ranges = {"cable_inertia": MASS_SHARE_RANGE, "cable_stiffness": modal.ea_range, "cabin_mass": modal.mass_range}
     grids = tuple((name, frequency_starts(modal, name, lo, hi, f_rec, weight, cutoff))
                   for name, (lo, hi) in ranges.items())
     return CabinRecordModel(modal, jnp.asarray(sigma_mm), jnp.asarray(sigma_mrad), grids, duration, tuple(notes))
+
+
+def check_amplitude(data: CabinRecordData, sigma_mm: float, sigma_mrad: float) -> None:
+    """Clear errors for a record whose size contradicts its units: a pose group (x, y, z in mm;
+    rx, ry, rz in degrees) that varies less than :data:`AMPLITUDE_FLOOR` × its noise σ (a
+    record in metres or radians, or σ stated too large), or more than a free vibration can
+    (:data:`MAX_POSITION_STD_MM`, :data:`MAX_ROTATION_STD_DEG`: a record in µm or arcseconds)."""
+    std = np.std(np.asarray(data.pose), axis=0)
+    pos_mm, rot_deg = float(np.max(std[:3])), float(np.rad2deg(np.max(std[3:]) * 1e-3))
+    sigma_deg = float(np.rad2deg(sigma_mrad * 1e-3))
+    if pos_mm < AMPLITUDE_FLOOR * sigma_mm:
+        raise ValueError(
+            f"the record's positions x, y, z vary by at most {pos_mm:.3g} mm (standard deviation), less than "
+            f"{AMPLITUDE_FLOOR:g} × the tracker's noise σ = {sigma_mm:.4g} mm that every measured value carries: "
+            "the columns are mm (a record in metres reads 1000× too small), or give the tracker's σ with --sigma-um")
+    if rot_deg < AMPLITUDE_FLOOR * sigma_deg:
+        raise ValueError(
+            f"the record's rotations rx, ry, rz vary by at most {rot_deg:.3g}° (standard deviation), less than "
+            f"{AMPLITUDE_FLOOR:g} × the tracker's noise σ = {sigma_deg:.4g}° that every measured value carries: "
+            "the columns are degrees (a record in radians reads 57× too small), or give the tracker's σ with "
+            "--sigma-arcsec")
+    if pos_mm > MAX_POSITION_STD_MM:
+        raise ValueError(f"the record's positions vary by {pos_mm:.4g} mm (standard deviation): more than "
+                         f"{MAX_POSITION_STD_MM / 1e3:g} m, which no free vibration of the cabin reaches; the "
+                         "columns are mm (a record in µm reads 1000× too large)")
+    if rot_deg > MAX_ROTATION_STD_DEG:
+        raise ValueError(f"the record's rotations vary by {rot_deg:.4g}° (standard deviation): more than "
+                         f"{MAX_ROTATION_STD_DEG:g}°, which no free vibration of the cabin reaches; the columns are "
+                         "degrees (a record in arcseconds or mrad reads too large)")
 
 
 def check_sampling(data: CabinRecordData, modal: CabinModalModel) -> list[str]:
