@@ -146,6 +146,35 @@ def test_duplicated_rows_are_reported(measured):
     assert len(a.duplicate_rows) == 24 and any("repeat" in w for w in a.warnings)
 
 
+
+@pytest.mark.parametrize("seed", range(6))
+def test_duplicate_groups_are_the_pairwise_definition(seed):
+    # The grouping sorts by a projection (linear-logarithmic in the poses); checked against the
+    # definition compared pair by pair, on clusters jittered to either side of the tolerance and
+    # on plans whose poses share coordinates exactly.
+    from stewart_jax.calibration._assessment import DUPLICATE_ATOL, duplicate_rows
+
+    tol = np.array([DUPLICATE_ATOL[0]] * 3 + [DUPLICATE_ATOL[1]] * 3)
+
+    def pairwise(p):
+        seen, groups = np.zeros(len(p), bool), []
+        for i in range(len(p)):
+            same = [j for j in range(len(p)) if np.all(np.abs(p[j] - p[i]) <= tol)]
+            if not seen[i] and len(same) > 1:
+                groups.append(same)
+                seen[same] = True
+        return groups
+
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        centres = rng.uniform(-1, 1, (rng.integers(1, 30), 6)) * [1, 1, 1, 1e-2, 1e-2, 1e-2]
+        if seed % 2:
+            centres[:, :3] = np.round(centres[:, :3], 1)
+        m = int(rng.integers(2, 120))
+        steps = rng.choice([0.0, 0.5, 0.99, 1.0, 1.01, 2.0], (m, 6)) * rng.choice([-1, 1], (m, 6))
+        p = centres[rng.integers(0, len(centres), m)] + steps * tol * rng.integers(0, 2, (m, 1))
+        assert duplicate_rows(p) == pairwise(p)
+
 # ---- class 5: jitted kinematics ---------------------------------------------------------------
 
 
