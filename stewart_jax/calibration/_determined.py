@@ -126,13 +126,13 @@ def restricted_covariance(
     b = det.step_basis
     if b.shape[1] == 0:
         return np.zeros((len(det.scale),) * 2)
-    a = np.einsum("mij,jk->mik", np.asarray(jac), b)
-    ata = np.einsum("mik,mil->kl", a, a)
-    inv = np.linalg.pinv(ata, hermitian=True)
+    a = np.asarray(jac) @ b
+    flat = a.reshape(-1, b.shape[1])
+    inv = np.linalg.pinv(flat.T @ flat, hermitian=True)
     if noise_cov is None:
         cov_a = inv
     else:
-        meat = np.einsum("mik,mij,mjl->kl", a, np.asarray(noise_cov), a)
+        meat = flat.T @ (np.asarray(noise_cov) @ a).reshape(flat.shape)
         cov_a = inv @ meat @ inv
     cov = b @ cov_a @ b.T
     return 0.5 * (cov + cov.T)

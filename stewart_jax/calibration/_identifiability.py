@@ -189,7 +189,7 @@ def predicted_control_error_std(
     (dx, dy, dz) and ″ (φ, θ, ψ): the Cramér–Rao floor of an unbiased estimator propagated
     through :func:`control_error_sensitivity`."""
     M = control_error_sensitivity(calibrated, targets)
-    var = np.einsum("nik,kl,nil->ni", M, param_cov, M)
+    var = np.sum((M @ param_cov) * M, axis=-1)
     std = np.sqrt(np.maximum(var, 0.0))
     return np.concatenate([std[:, :3] / UM, std[:, 3:] / ARCSEC], axis=-1)
 
