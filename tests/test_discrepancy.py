@@ -316,7 +316,10 @@ def test_missing_columns_skip_candidates(model, hidden):
     bare = make_calibration_data(d.readings, d.poses, temperature=d.temperature)
     chosen, skipped = select_effects(model, bare, 28)
     assert {s.effect for s in skipped} == {"backlash", "drift"}
-    assert all("lack" in s.reason for s in skipped)
+    # named by the file's columns a user would add, not the data's field names
+    reasons = {s.effect: s.reason for s in skipped}
+    assert "dir1..dir6" in reasons["backlash"] and "'directions'" not in reasons["backlash"]
+    assert "the column(s) time, which the data lack" in reasons["drift"]
     assert {e.name for e in chosen} == set(EFFECTS) - {"backlash", "drift"}
     _, skipped = select_effects(model, d, 8)  # 48 observations: 36 + 12 + 6 > 48 for the tilt only
     assert [s.effect for s in skipped] == ["actuator_tilt"] and "too few" in skipped[0].reason

@@ -87,7 +87,8 @@ def select_effects(
         e = registered[n]
         missing = [c for c in e.requires if c not in have]
         if missing:
-            skipped.append(SkippedEffect(n, f"needs column(s) {missing}, which the data lack"))
+            cols = ", ".join(model.file_columns.get(c, c) for c in missing)
+            skipped.append(SkippedEffect(n, f"needs the column(s) {cols}, which the data lack"))
         elif n_obs - nb - e.n_params < MIN_DOF:
             skipped.append(
                 SkippedEffect(

@@ -223,6 +223,10 @@ class AbstractDiscrepancyModel(eqx.Module):
     """The report unit of each output's residual; ``None``: :attr:`report_unit` for every one."""
     time_unit: ClassVar[str] = "h"
     """The unit of the open search's ``time`` factor in term names (hours for a session)."""
+    file_columns: ClassVar[dict[str, str]] = {"directions": "dir1..dir6", "temperature": "temperature",
+                                              "time": "time"}
+    """The data file's column(s) behind each condition an effect ``requires``, as a user finds
+    them in the file (a skipped candidate names these)."""
 
     @property
     def reading_unit(self) -> str:
