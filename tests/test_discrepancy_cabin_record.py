@@ -355,6 +355,11 @@ def test_the_command_line_writes_and_diagnoses_a_record(tmp_path, capsys):
     assert set(effect_names("fast-cabin")) == {"cable_inertia", "cable_stiffness", "cabin_mass", "damping"}
     err = capsys.readouterr().err
     assert "named: cable_inertia" in err and "0.12–0.2 Hz" in err
+    # each stage says when it starts and ends, with its time, before the verdict
+    stages = [line for line in err.splitlines() if line.startswith("diagnose: ") and " s" in line]
+    assert [s.split(" in ")[0] for s in stages if " done in " in s or " built in " in s] == [
+        "diagnose: model built", "diagnose: fits done", "diagnose: naming done"], err
+    assert err.index("naming done") < err.index("named: cable_inertia")
 
 
 @pytest.mark.parametrize("argv, says", [

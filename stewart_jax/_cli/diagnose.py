@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 FAST_SIGMA_UM = 1000.0
 """Default tracker noise of a FAST cabin record per position coordinate (µm)."""
@@ -35,6 +36,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         return _diagnose_points(args, effects)
     if args.targets is not None or args.tracker_sigma_um is not None:
         raise ValueError("--targets and --tracker-sigma-um are for a points file (one with a 'target' column)")
+    from .calibrate import PROGRESS_POSES
+
     geometry = load_mechanism(args.geometry)
     data = read_csv(args.file, reading_unit=geometry.reading_unit)
     reading = "sigma_reading_um" if geometry.reading_unit == "mm" else "sigma_reading_urad"
@@ -48,6 +51,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         alpha=args.alpha,
         estimate_noise=args.estimate_noise,
         temperature_std_k=args.temperature_std_k,
+        progress=_say if data.n_poses >= PROGRESS_POSES else None,
     )
     out = report.to_dict()
     out["file"] = args.file
@@ -80,6 +84,8 @@ def _diagnose_points(args: argparse.Namespace, effects) -> int:
     if args.out_model:
         raise ValueError("--out-model writes a model of pose data; for a points file, write the calibrated "
                          "geometry with calibrate --out-geometry")
+    from .calibrate import PROGRESS_POSES
+
     range_um, across = tracker_sigma(args)
     targets = read_targets(args.targets)
     geometry = load_mechanism(args.geometry)
@@ -87,7 +93,8 @@ def _diagnose_points(args: argparse.Namespace, effects) -> int:
     rows, rotation, translation = point_rows(data, targets, geometry, range_um=range_um, across_um_per_m=across)
     model = points_model(geometry, rotation, translation)
     report = diagnose(rows, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,
-                      alpha=args.alpha, estimate_noise=args.estimate_noise)
+                      alpha=args.alpha, estimate_noise=args.estimate_noise,
+                      progress=_say if data.n_poses >= PROGRESS_POSES else None)
     out = report.to_dict()
     out["file"] = args.file
     out["data"] = "points"
@@ -134,10 +141,14 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
 
     position, segments, sigma_um, sigma_arcsec = _cabin_settings(args)
     data = read_cabin_record(args.file)
+    t0 = time.perf_counter()
+    _say(f"building the cabin's model on lumped cables ({segments} segments per cable) and reading the record's "
+         f"modes ({len(data.time)} samples) …")
     model = cabin_record_model(data, position, segments=segments, sigma_um=sigma_um, sigma_arcsec=sigma_arcsec)
+    _say(f"model built in {time.perf_counter() - t0:.1f} s")
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     report = diagnose(data, model, effects=effects, holdout_fraction=args.holdout_fraction, seed=args.seed,
-                      alpha=args.alpha, estimate_noise=args.estimate_noise)
+                      alpha=args.alpha, estimate_noise=args.estimate_noise, progress=_say)
     out = report.to_dict()
     out["file"] = args.file
     out["settings"] = {
@@ -166,6 +177,12 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
         print(f"diagnose: {line}", file=sys.stderr)
     _emit(args, out)
     return 0
+
+
+def _say(text: str) -> None:
+    # each stage's start and end, on stderr: a cabin record always (its model alone takes tens of
+    # seconds), pose and points data from calibrate's PROGRESS_POSES poses
+    print(f"diagnose: {text}", file=sys.stderr, flush=True)
 
 
 def _cabin_settings(args: argparse.Namespace) -> tuple[tuple[float, float, float], int, float, float]:

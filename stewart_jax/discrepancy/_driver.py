@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import equinox as eqx
@@ -128,6 +129,7 @@ def diagnose(
     estimate_noise: bool = False,
     discover: bool = True,
     temperature_std_k: float = 0.0,
+    progress: Callable[[str], None] | None = None,
 ) -> DiagnosisReport:
     """Run the discrepancy workflow on one data set (see the module docstring).
 
@@ -139,6 +141,8 @@ def diagnose(
     that no candidate explains, search the open library of terms (``_discovery.py``).
     ``temperature_std_k``: standard deviation of the recorded temperature (K); a candidate that
     reads it is tested with that error in its prediction (``_errors_in_variables.py``).
+    ``progress``: called with a line of text as each stage starts and ends (the fits, the tests
+    and naming, with their times).
     """
     if not temperature_std_k >= 0:
         raise ValueError(f"temperature_std_k must be ≥ 0 K, got {temperature_std_k}")
@@ -150,7 +154,7 @@ def diagnose(
         raise ValueError(f"no candidate effect can be fitted to these data: {[s.to_dict() for s in skipped]}")
     train, test = model.take(data, train_idx), model.take(data, test_idx)
     return diagnose_many(model, chosen, [train], [test], alpha=alpha, estimate_noise=estimate_noise, skipped=skipped,
-                         discover=discover, temperature_std_k=temperature_std_k)[0]
+                         discover=discover, temperature_std_k=temperature_std_k, progress=progress)[0]
 
 
 def _stack(items):
@@ -168,9 +172,11 @@ def diagnose_many(
     skipped: Sequence[SkippedEffect] | None = None,
     discover: bool = True,
     temperature_std_k: float = 0.0,
+    progress: Callable[[str], None] | None = None,
 ) -> list[DiagnosisReport]:
     """:func:`diagnose` on many train/held-out pairs at once (same shapes and columns; all
     fits batched). ``effects`` must be applicable to every data set."""
+    say = progress or (lambda text: None)
     effects = tuple(effects)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
@@ -181,10 +187,17 @@ def diagnose_many(
         # NOTE: one data set at a time (the same compiled kernels): see the model's
         # ``batched_fits``.
         return [diagnose_many(model, effects, [tr], [te], alpha=alpha, estimate_noise=estimate_noise,
-                              skipped=skipped, discover=discover, temperature_std_k=temperature_std_k)[0]
+                              skipped=skipped, discover=discover, temperature_std_k=temperature_std_k,
+                              progress=progress)[0]
                 for tr, te in zip(trains, tests, strict=True)]
     train_b, test_b = _stack(trains), _stack(tests)
+    t0 = time.perf_counter()
+    say(f"fitting the base model and {len(effects)} candidate(s) ({', '.join(e.name for e in effects)}) on "
+        f"{model.n_rows(trains[0])} training rows …")
     fits = fit_candidates(model, effects, train_b, test_b)
+    say(f"fits done in {time.perf_counter() - t0:.1f} s; testing, naming"
+        + (" and, if nothing is named, searching the open library of terms …" if discover else " …"))
+    t0 = time.perf_counter()
     nb = model.base_initial.shape[0]
     k = len(effects)
     slices = effect_slices(model, effects)
@@ -227,7 +240,9 @@ def diagnose_many(
             decisions[b] = dec
         pending = again
 
-    return [_finish(ds, dec, list(skipped or []), discover) for ds, dec in zip(sets, decisions, strict=True)]
+    reports = [_finish(ds, dec, list(skipped or []), discover) for ds, dec in zip(sets, decisions, strict=True)]
+    say(f"naming done in {time.perf_counter() - t0:.1f} s")
+    return reports
 
 
 def _fitted(ds: DataSet, i: int | None) -> FittedModel:
