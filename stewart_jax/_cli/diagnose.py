@@ -347,7 +347,8 @@ def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--position", type=_position, default=None, metavar="X,Y,Z",
                    help="--geometry fast: the cabin's position G t_C in metres (default 0,0,140)")
     p.add_argument("--segments", type=int, default=None, metavar="N",
-                   help="--geometry fast: lumped-mass segments per cable behind cable_inertia (default 8)")
+                   help="--geometry fast: lumped-mass segments per cable behind cable_inertia (default 20, as "
+                        "fast --free-decay)")
     p.add_argument("--sigma-um", type=float, default=None,
                    help=f"pose noise σ, translation (µm; default 0.1, or {FAST_SIGMA_UM:g} for --geometry fast)")
     p.add_argument("--sigma-arcsec", type=float, default=None,
