@@ -105,3 +105,14 @@ def test_a_record_too_long_for_memory_is_refused_with_the_longest_it_can_take(mo
     with pytest.raises(ValueError, match=f"up to {most} samples") as e:
         cabin_record_model(data, POS, modal=modal)
     assert "phase" not in str(e.value) and "starting points" not in str(e.value)
+
+
+def test_diagnose_models_the_cables_as_fast_records_them():
+    # The model's N must match the record's cables (the lumped frequencies move as O(1/N²), a
+    # fifth of a radian over 200 s between N = 20 and 40): the default of diagnose's --segments is
+    # the default of the command that writes records.
+    from stewart_jax._cli import build_parser
+
+    choices = build_parser()._subparsers._group_actions[0].choices
+    default = {a.dest: a.default for a in choices["fast"]._actions}["segments"]
+    assert cr.DEFAULT_SEGMENTS == default == 20
