@@ -116,3 +116,11 @@ def test_diagnose_models_the_cables_as_fast_records_them():
     choices = build_parser()._subparsers._group_actions[0].choices
     default = {a.dest: a.default for a in choices["fast"]._actions}["segments"]
     assert cr.DEFAULT_SEGMENTS == default == 20
+
+
+def test_a_partial_cable_inertia_points_to_the_segments():
+    from stewart_jax._cli.diagnose import _discretisation_note
+
+    note = _discretisation_note([{"effect": "cable_inertia", "gap_share": 0.44}], 200.0, 20)
+    assert len(note) == 1 and "--segments (now 20)" in note[0] and "200 s" in note[0]
+    assert _discretisation_note([{"effect": "cable_stiffness", "gap_share": 0.13}], 200.0, 20) == []

@@ -171,12 +171,22 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
     low = lambda m: f"{m['frequencies_hz'][0]:.4f} Hz" if m["frequencies_hz"] else "none"  # noqa: E731
     lines = report.summary() + [f"note: {n}" for n in model.notes]
+    lines += _discretisation_note(report.partial, model.duration_s, segments)
     lines.append(f"lowest cabin mode {low(out['modes']['before'])} (quasi-static) → {low(out['modes']['after'])} "
                  "(augmented model); measured on FAST: 0.12–0.2 Hz")
     for line in lines + ([f"skipped {skipped}"] if skipped else []):
         print(f"diagnose: {line}", file=sys.stderr)
     _emit(args, out)
     return 0
+
+
+def _discretisation_note(partial: list[dict], duration_s: float, segments: int) -> list[str]:
+    """The hint a partial ``cable_inertia`` calls for: the lumped model's discretisation."""
+    if not any(p["effect"] == "cable_inertia" for p in partial):
+        return []
+    return [f"note: the lumped model's frequencies move with its segments (O(1/N²)): over a record of "
+            f"{duration_s:.0f} s a model with other segments than the cables' leaves part of the gap; diagnose "
+            f"again with --segments (now {segments}) set to the cables' discretisation, or finer"]
 
 
 def _say(text: str) -> None:
