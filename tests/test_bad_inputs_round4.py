@@ -220,3 +220,13 @@ def test_a_record_in_the_right_units_passes_the_size_check(tmp_path):
     check_amplitude(data, 0.1, np.deg2rad(0.001) * 1e3)
     with pytest.raises(ValueError, match="--sigma-um"):
         check_amplitude(data, 100.0, np.deg2rad(0.01) * 1e3)
+
+
+def test_targets_with_a_pose_file_name_the_mismatch(tmp_path, capsys):
+    pose, targets = tmp_path / "p.csv", tmp_path / "T.json"
+    assert cli_main(["simulate", "--geometry", "rubin_camera", "--plan", "paper8", "--out", str(pose)]) == 0
+    targets.write_text(json.dumps({"platform_targets": {"a": [0.0, 0.0, 0.0]}, "base_references": {}}))
+    capsys.readouterr()
+    assert cli_main(["calibrate", str(pose), "--geometry", "rubin_camera", "--targets", str(targets)]) == 2
+    err = capsys.readouterr().err
+    assert "--targets is for a laser tracker's points file" in err and "without --targets" in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -34,8 +35,11 @@ def run(args: argparse.Namespace) -> int:
     :func:`._points.run_calibrate`; a pose file is fitted, assessed, printed and written."""
     from . import _points
 
-    if args.targets is not None or _points.is_points_file(args.file):
+    if _points.is_points_file(args.file):
         return _points.run_calibrate(args)
+    if args.targets is not None and os.path.isfile(args.file):
+        raise ValueError(f"--targets is for a laser tracker's points file (one with a 'target' column); {args.file} "
+                         "has none: a pose file is calibrated without --targets")
     holdout = _check_args(args)
 
     import jax
