@@ -230,3 +230,28 @@ def test_targets_with_a_pose_file_name_the_mismatch(tmp_path, capsys):
     assert cli_main(["calibrate", str(pose), "--geometry", "rubin_camera", "--targets", str(targets)]) == 2
     err = capsys.readouterr().err
     assert "--targets is for a laser tracker's points file" in err and "without --targets" in err
+
+
+@pytest.mark.parametrize("argv", [["--temperature-degC", "293.15"], ["--temperature-degC", "-150"]])
+def test_a_compensation_temperature_in_kelvin_is_refused(capsys, argv):
+    # a ranged temperature polynomial extrapolates linearly: 293 "°C" would be a confident offset
+    from pathlib import Path
+
+    v7 = Path(__file__).parent / "data" / "compensation_v7.yaml"
+    assert cli_main(["lut", "apply", str(v7), "--elevation-deg", "45", "--rotation-deg", "0", *argv]) == 2
+    assert "not an air temperature" in capsys.readouterr().err
+    assert cli_main(["lut", "apply", str(v7), "--elevation-deg", "45", "--rotation-deg", "0",
+                     "--temperature-degC", "-40"]) == 0  # a cold night is no slip
+
+
+def test_a_campaign_in_kelvin_is_refused():
+    from stewart_jax.compensation._campaign import Campaign, check_campaign
+
+    fields = Campaign._fields
+    n = 3
+    values = {"elevation_deg": np.array([10.0, 40.0, 80.0]), "rotation_deg": np.zeros(n),
+              "azimuth_deg": np.zeros(n), "temperature_degC": np.array([283.0, 288.0, 293.0]),
+              "offsets": np.zeros((n, 6))}
+    kw = {f: values.get(f, True) for f in fields}
+    with pytest.raises(ValueError, match="row 1 has temperature_degC 283"):
+        check_campaign(Campaign(**kw))

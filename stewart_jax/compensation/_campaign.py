@@ -29,7 +29,7 @@ import jax
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._table import OFFSET_COLUMNS, CompensationTable
+from ._table import AIR_TEMPERATURE_DEGC, OFFSET_COLUMNS, CompensationTable
 
 SIGNS = {
     "correction": "each row is the offset the controller adds: compensated = uncompensated + offset",
@@ -113,7 +113,10 @@ def read_campaign(path: str | os.PathLike[str]) -> Campaign:
 
 
 def check_campaign(c: Campaign, where: str = "campaign") -> None:
-    """Refuse a campaign whose elevations leave [0, 90] or whose arrays disagree in length."""
+    """Refuse a campaign whose elevations leave [0, 90], whose temperatures are no air temperature
+    in °C (:data:`~stewart_jax.compensation._table.AIR_TEMPERATURE_DEGC`) or whose arrays disagree
+    in length."""
+
     n = len(c.elevation_deg)
     if c.offsets.shape != (n, 6) or any(len(a) != n for a in (c.rotation_deg, c.azimuth_deg, c.temperature_degC)):
         raise ValueError(f"{where}: {n} elevations but offsets of shape {c.offsets.shape} and attitudes of lengths "
@@ -121,6 +124,12 @@ def check_campaign(c: Campaign, where: str = "campaign") -> None:
     bad = np.flatnonzero((c.elevation_deg < 0) | (c.elevation_deg > 90))
     if bad.size:
         raise ValueError(f"{where}: elevation must be in [0, 90] deg; row {bad[0] + 1} has {c.elevation_deg[bad[0]]}")
+    lo, hi = AIR_TEMPERATURE_DEGC
+    bad = np.flatnonzero((c.temperature_degC < lo) | (c.temperature_degC > hi))
+    if bad.size:
+        raise ValueError(f"{where}: row {bad[0] + 1} has temperature_degC {c.temperature_degC[bad[0]]}, no air "
+                         f"temperature in °C (a telescope meets {lo:g} to {hi:g} °C): a value in kelvin is 273.15 "
+                         "more")
 
 
 def campaign_csv(c: Campaign, comments: tuple[str, ...] = ()) -> str:

@@ -37,6 +37,10 @@ AXIS_UNITS = ("um", "um", "um", "deg", "deg", "deg")
 OFFSET_COLUMNS = tuple(f"{a}_{u}" for a, u in zip(AXES, AXIS_UNITS, strict=True))
 """``("x_um", "y_um", "z_um", "u_deg", "v_deg", "w_deg")``: the CSV and JSON names of the offsets."""
 
+AIR_TEMPERATURE_DEGC = (-90.0, 70.0)
+"""Air temperatures a telescope can meet (°C; Earth's records are −89 and +57): a value outside is
+a unit slip (kelvin, °F) and is refused, not extrapolated."""
+
 HEXAPODS = {"camera": "camera_config", "m2": "m2_config"}
 """The table of each hexapod in a configuration file."""
 
@@ -99,7 +103,8 @@ class CompensationTable(eqx.Module):
         filter: str | Sequence[str | None] | None = None,
     ) -> Float[Array, "... 6"]:
         """The offsets ``[x_um, y_um, z_um, u_deg, v_deg, w_deg]`` at attitudes of any
-        broadcastable batch shape. Elevation outside [0, 90] and an unknown filter are refused
+        broadcastable batch shape. Elevation outside [0, 90], a temperature outside
+        :data:`AIR_TEMPERATURE_DEGC` and an unknown filter are refused
         (``ValueError``) before any work; ``filter`` is one name, one per attitude (``None``:
         no filter offset), or ``None``."""
         e, r, a, t = (np.asarray(v, dtype=np.float64) for v in (elevation_deg, rotation_deg, azimuth_deg,
@@ -111,6 +116,11 @@ class CompensationTable(eqx.Module):
         if np.any((e < 0.0) | (e > 90.0)):
             raise ValueError(f"elevation must be in [0, 90] deg (the controller refuses other values), got "
                              f"{e[(e < 0.0) | (e > 90.0)][:3].tolist()}")
+        lo, hi = AIR_TEMPERATURE_DEGC
+        if np.any((t < lo) | (t > hi)):
+            bad = t[(t < lo) | (t > hi)][:3].tolist()
+            raise ValueError(f"temperature_degC {bad} is not an air temperature in °C (a telescope meets {lo:g} to "
+                             f"{hi:g} °C): a value in kelvin is 273.15 more, in °F (t − 32) × 5/9")
         index = self.filter_index(filter, shape)
         return _offsets_jit(self, *(jnp.broadcast_to(v, shape) for v in (e, r, a, t)), jnp.asarray(index))
 
