@@ -255,3 +255,19 @@ def test_a_campaign_in_kelvin_is_refused():
     kw = {f: values.get(f, True) for f in fields}
     with pytest.raises(ValueError, match="row 1 has temperature_degC 283"):
         check_campaign(Campaign(**kw))
+
+
+def test_a_targets_file_in_metres_is_named_and_the_right_one_reads(tmp_path, capsys):
+    # both directions of the points' scale check: a tracker file in metres (distances 1000×
+    # shorter than the targets') and a targets file in metres (1000× longer)
+    from stewart_jax.calibration._points_io import read_points_csv, read_targets
+
+    pts, t_mm, t_m = tmp_path / "p.csv", tmp_path / "T.json", tmp_path / "T_m.json"
+    assert cli_main(["simulate", "--points", "--targets", str(t_mm), "--default-targets", "--geometry",
+                     "rubin_camera", "--plan", "paper8", "--out", str(pts)]) == 0
+    raw = json.loads(t_mm.read_text())
+    t_m.write_text(json.dumps({k: {n: (np.asarray(v) * 1e-3).tolist() for n, v in d.items()}
+                               for k, d in raw.items()}))
+    assert read_points_csv(pts, read_targets(t_mm)).n_poses == 8
+    with pytest.raises(ValueError, match="targets file's coordinates are in metres"):
+        read_points_csv(pts, read_targets(t_m))

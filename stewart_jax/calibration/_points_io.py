@@ -257,15 +257,20 @@ def _number(path, line, column, cell, degrees: bool = False) -> float:
 
 
 def _check_millimetres(path, measured, nominal, lines) -> None:
-    """Distances between measured points against their nominal ones: 1000× shorter is metres."""
+    """Distances between measured points against their nominal ones: 1000× shorter is a tracker
+    file in metres; 1000× longer, a targets file in metres (or a tracker file in µm)."""
     i, j = np.triu_indices(len(measured), 1)
     dn = np.linalg.norm(nominal[i] - nominal[j], axis=1)
     dm = np.linalg.norm(measured[i] - measured[j], axis=1)
-    ok = dn > 1.0
-    if not np.any(ok):
+    ok = dn > 1e-3 * np.max(dn, initial=0.0)
+    if not np.any(ok) or np.max(dn) == 0.0:
         return
     ratio = float(np.median(dm[ok] / dn[ok]))
     if ratio < 0.01:
         raise ValueError(f"{path}, lines {lines[0]}–{lines[-1]}: the measured distances between these targets are "
                          f"{ratio:.3g}× their nominal ones — the tracker file is in metres; the points file is "
                          "in mm")
+    if ratio > 100.0:
+        raise ValueError(f"{path}, lines {lines[0]}–{lines[-1]}: the measured distances between these targets are "
+                         f"{ratio:.3g}× their nominal ones — the targets file's coordinates are in metres (or the "
+                         "tracker's in µm); both files are in mm")
