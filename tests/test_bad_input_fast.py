@@ -127,3 +127,24 @@ def test_an_output_path_is_checked_before_the_run(option, tmp_path, capsys):
     rc, err, seconds = _fast([option, str(path)], capsys)
     assert rc == 2 and str(path) in err and ".partial" not in err and seconds < 5, err
 
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--cables", "lumped", "--modes", "--segments", "5000"], "at most 200"),
+    (["--cables", "lumped", "--modes", "--segments", "1"], "at least 2"),
+])
+def test_segments_outside_what_converges_and_fits_are_refused(argv, says, capsys):
+    # 5000 segments ran for minutes with no answer; both ends refused before any work (exit 2)
+    assert main(["fast", *argv]) == 2
+    assert says in capsys.readouterr().err
+
+
+def test_a_free_decay_too_long_for_memory_says_how_long_it_can_take(monkeypatch):
+    # 10⁶ s at the integrator's 1 ms step died allocating 48 GB inside XLA; refused before
+    from stewart_jax.cable_robot import _free_decay as fd
+
+    monkeypatch.setattr(fd, "available_memory_bytes", lambda: 4_000_000_000)
+    with pytest.raises(ValueError, match=r"can simulate up to 5208 s at this step") as e:
+        fd.check_steps(10**9, 1e-3)
+    assert "384 GB" in str(e.value)
+    fd.check_steps(5_000_000, 1e-3)  # 5000 s fits in 2 GB

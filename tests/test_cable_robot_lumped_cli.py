@@ -22,7 +22,7 @@ def test_quasi_static_stays_the_default():
 
 
 @pytest.mark.parametrize("extra, message", [
-    (["--segments", "1"], "--segments must be at least 2"),
+    (["--segments", "1"], "--segments: the number of cable segments must be at least 2"),
     (["--segments", "3", "--cutoff-hz", "-1"], "--cutoff-hz"),
 ])
 def test_bad_lumped_options_are_refused(extra, message, capsys):

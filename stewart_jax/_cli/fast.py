@@ -215,8 +215,13 @@ def _option_problem(args) -> str | None:
                     "(the time simulation runs on quasi-static cables)")
         if not (np.isfinite(args.cutoff_hz) and args.cutoff_hz > 0):
             return f"--cutoff-hz must be a positive frequency in Hz, got {args.cutoff_hz}"
-    if getattr(args, "cables", "quasi-static") == "lumped" and args.segments < 2:
-        return f"--segments must be at least 2 (one free node per cable), got {args.segments}"
+    if getattr(args, "cables", "quasi-static") == "lumped":
+        from ..cable_robot._lumped import check_segments
+
+        try:
+            check_segments(args.segments)
+        except ValueError as e:
+            return f"--segments: {e}"
     if not (args.duration > 0 and args.dt > 0 and args.dt <= args.duration):
         return "need 0 < dt <= duration"
     return None

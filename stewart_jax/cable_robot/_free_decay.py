@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from .._memory import MEMORY_SHARE, available_memory_bytes
 from ._cabin_modal import DAMPING_GROUPS, damping_group_shares
 from ._catenary import solve_catenary
 from ._lumped import lumped_modes
@@ -90,6 +91,25 @@ def _check_common(position, duration, dt, displacement, velocity, damping_ratio)
             raise ValueError(f"{name} must be 6 finite numbers (m, m, m, rad, rad, rad[/s]), got {v!r}")
     if not (np.isfinite(damping_ratio) and 0 <= damping_ratio < 1):
         raise ValueError(f"damping_ratio must be in [0, 1), got {damping_ratio}")
+
+
+BYTES_PER_STEP = 6 * 8 * 8
+"""Memory one integrator step of a free decay takes (bytes): the cabin's six coordinates in
+float64, kept for the record, and the copies the scan's output and the sampling make of them."""
+
+
+def check_steps(n_steps: int, dt: float) -> None:
+    """Refuse, before the integration, a free decay of ``n_steps`` steps of ``dt`` whose record
+    would not fit in :data:`~stewart_jax._memory.MEMORY_SHARE` of this machine's memory, saying
+    how long a decay it can take."""
+    available = available_memory_bytes()
+    if available is None:
+        return
+    most = int(MEMORY_SHARE * available / BYTES_PER_STEP)
+    if n_steps > most:
+        raise ValueError(f"{n_steps} integrator steps of {dt:.3g} s need about {n_steps * BYTES_PER_STEP / 1e9:.3g} GB "
+                         f"and this machine has {available / 1e9:.1f} GB available: it can simulate up to "
+                         f"{most * dt:.4g} s at this step; shorten the duration")
 
 
 def _qs_run(params, pos, R, s0, F0, M, C, q0, v0, dt, n_steps):
@@ -155,6 +175,7 @@ def quasi_static_free_decay(
     w = 2.0 * np.pi * np.asarray(freq)
     C = M @ shapes @ jnp.diag(2.0 * zeta * w) @ shapes.T @ M
     n = int(round(duration / dt))
+    check_steps(n, dt)
     q, nf = _qs_run_jit(params, pos, R, st.s0, st.force, M, C, jnp.asarray(displacement, jnp.float64),
                         jnp.asarray(velocity, jnp.float64), jnp.asarray(dt, jnp.float64), n)
     return FreeDecay(np.arange(n + 1) * dt, np.asarray(q), "quasi-static", 0, np.asarray(freq), zeta,
@@ -193,6 +214,7 @@ def lumped_free_decay(
     q0 = np.asarray(displacement, dtype=np.float64)
     v0 = np.asarray(velocity, dtype=np.float64)
     n = int(round(duration / dt))
+    check_steps(n, dt)
     tr = simulate_lumped(params, modes, dt, n, displacement=np.concatenate([q0, G @ q0]),
                          velocity=np.concatenate([v0, G @ v0]), damping_ratio=damping_ratio)
     f = np.asarray(modes.frequencies_hz)

@@ -57,6 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._memory import MEMORY_SHARE, available_memory_bytes
 from ..cable_robot._cabin_modal import (
     DAMPING_GROUPS,
     CabinModalModel,
@@ -99,8 +100,6 @@ BYTES_PER_SAMPLE = 60_000
 whitened Jacobians of every unknown on the training and held-out rows, the whiteners and the
 candidates' held-out residuals, a few kB per sample, taken ten times for the fits' temporaries
 (the modal sums themselves are bounded by their block, not the record)."""
-MEMORY_SHARE = 0.5
-"""Share of the machine's available memory a record's fits may take."""
 MIN_PERIODS = 2.0
 """A record must last this many periods of the base model's lowest mode."""
 MAX_JITTER = 0.05
@@ -389,7 +388,7 @@ def check_memory(n_samples: int, rate_hz: float) -> None:
     """Refuse, before any fit, a record of ``n_samples`` whose fits would take more than
     :data:`MEMORY_SHARE` of this machine's available memory, saying how long a record (samples,
     and minutes at ``rate_hz``) it can take."""
-    available = _available_memory_bytes()
+    available = available_memory_bytes()
     if available is None:
         return
     most = int(MEMORY_SHARE * available / BYTES_PER_SAMPLE)
@@ -400,18 +399,6 @@ def check_memory(n_samples: int, rate_hz: float) -> None:
             f"and this machine has {available / 1e9:.1f} GB available: it can take records of up to {most} samples "
             f"({most / rate_hz / 60.0:.0f} min at the record's {rate_hz:.4g} Hz); resample the record to a lower rate "
             "(its modes lie below 1.5 Hz) or diagnose it on a machine with more memory")
-
-
-def _available_memory_bytes() -> int | None:
-    try:
-        with open("/proc/meminfo") as f:
-            info = dict(line.split(":", 1) for line in f)
-        return int(info["MemAvailable"].split()[0]) * 1024
-    except (OSError, KeyError, ValueError):
-        try:
-            return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        except (ValueError, OSError, AttributeError):
-            return None
 
 
 def cabin_record_model(
