@@ -199,21 +199,32 @@ def diagnose_many(
         + (" and, if nothing is named, searching the open library of terms …" if discover else " …"))
     t0 = time.perf_counter()
     nb = model.base_initial.shape[0]
-    k = len(effects)
     slices = effect_slices(model, effects)
     known = not estimate_noise
 
     sets = [DataSet(b, fits, model, effects, slices, nb, alpha, known, trains[b], tests[b], temperature_std_k)
             for b in range(len(trains))]
-    decisions = [decide(ds) for ds in sets]
-    # NOTE: the named candidate is compared with every other significant one by fitting both
-    # together (encompassing tests). If the named one is rejected against the pair while the
-    # other is not, the other explains everything the named one does and more: it is named
-    # instead and compared again (at most once per candidate).
+    decisions = _compare_named(sets, [decide(ds) for ds in sets], train_b, test_b)
+    reports = [_finish(ds, dec, list(skipped or []), discover) for ds, dec in zip(sets, decisions, strict=True)]
+    say(f"naming done in {time.perf_counter() - t0:.1f} s")
+    return reports
+
+
+def _compare_named(sets: list[DataSet], decisions: list[Decision], train_b, test_b) -> list[Decision]:
+    """The decisions after the named candidate of each data set is compared with every other
+    significant one (``train_b``, ``test_b``: the data sets stacked).
+
+    NOTE: the named candidate is compared with every other significant one by fitting both
+    together (encompassing tests). If the named one is rejected against the pair while the
+    other is not, the other explains everything the named one does and more: it is named
+    instead and compared again (at most once per candidate)."""
+    decisions = list(decisions)
+    ds0 = sets[0]
+    model, effects, fits, k = ds0.model, ds0.effects, ds0.fits, len(ds0.effects)
     visited = [{d.named_index} for d in decisions]
     pending = [b for b, d in enumerate(decisions) if d.named_index is not None and len(d.significant) > 1]
     while pending:
-        masks = np.zeros((len(trains), k + 1, k))
+        masks = np.zeros((len(sets), k + 1, k))
         jobs = []
         for b in pending:
             a = decisions[b].named_index
@@ -226,9 +237,10 @@ def diagnose_many(
         for b in pending:
             dec = decisions[b]
             dec = dataclasses.replace(dec, pairs={c: float(chi2_pairs[b, j]) for bb, j, c in jobs if bb == b})
-            outcome = pair_tests(dec, np.asarray(fits.jac_tr[b]), slices, nb, known)
+            outcome = pair_tests(dec, np.asarray(fits.jac_tr[b]), ds0.slices, ds0.nb, ds0.known)
             dominating = [
-                c for c, (p_c, p_a) in outcome.items() if p_c >= alpha and p_a < dec.level and dec.cands[c].explains
+                c for c, (p_c, p_a) in outcome.items()
+                if p_c >= ds0.alpha and p_a < dec.level and dec.cands[c].explains
             ]
             dominating = [c for c in dominating if c not in visited[b]]
             if dominating:
@@ -239,10 +251,7 @@ def diagnose_many(
                 dec = dataclasses.replace(dec, outcome=outcome)
             decisions[b] = dec
         pending = again
-
-    reports = [_finish(ds, dec, list(skipped or []), discover) for ds, dec in zip(sets, decisions, strict=True)]
-    say(f"naming done in {time.perf_counter() - t0:.1f} s")
-    return reports
+    return decisions
 
 
 def _fitted(ds: DataSet, i: int | None) -> FittedModel:
