@@ -159,8 +159,8 @@ def _start(model, effects, mask, train, w_tr, z0, profiles):
     if profiles is None:
         return z0 * keep
     zs, chi2, moves = profiles
-    eligible = jnp.all(moves <= mask[None, :], axis=1)
-    chi2 = jnp.where(eligible, chi2, jnp.inf)
+    eligible = jnp.all(moves <= mask[None, :], axis=1) & jnp.isfinite(chi2) & jnp.all(jnp.isfinite(zs), axis=1)
+    chi2 = jnp.where(eligible, chi2, jnp.inf)  # NOTE: argmin would pick a NaN, and the comparison below drop it
     best = jnp.argmin(chi2)
     chi2_0 = jnp.sum(_white_residual(z0 * keep, (model, effects, mask, train, w_tr)) ** 2)
     return jnp.where(chi2[best] < chi2_0, zs[best] * keep, z0 * keep)
@@ -277,7 +277,10 @@ def _searched_step(args, keep, ridge, carry, _):
     dz = _full_step(z, r, args, keep, ridge)
     trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
     ok = jnp.isfinite(trial) & (trial < chi2)
-    return (z + dz * jnp.where(jnp.any(ok), jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)], 0.0), chi2), None
+    # NOTE: where no trial lowers χ² the step is not taken at all: ``z + dz·0`` would still carry
+    # a non-finite step (a Jacobian through a mode that vanishes) into every later step
+    moved = z + dz * jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)]
+    return (jnp.where(jnp.any(ok), moved, z), chi2), None
 
 
 def _fit_searched(args, keep, ridge, z_start, n_steps):
