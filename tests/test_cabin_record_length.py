@@ -132,6 +132,7 @@ def test_a_fit_that_meets_a_non_finite_step_keeps_its_last_finite_point():
     # tracker noise seed 1, split seed 1) on which a searched Gauss-Newton step went NaN: the
     # step was multiplied by 0 and added, so the fit of cable_inertia came out NaN and another
     # effect was reported. Measured after: named, μ = 0.998, held-out RMS 707 against a floor of 718.
+    # Slow: 10 min under the Makefile's -O0 on two loaded cores (the 20-segment model), 4 min at -O2.
     from stewart_jax.discrepancy import diagnose
 
     decay = lumped_free_decay(PARAMS, POS, 20, 20.0, None, displacement=Q0, damping_ratio=ZETA)
