@@ -107,6 +107,9 @@ PROFILE_STEPS = 2
 :meth:`~stewart_jax.discrepancy.AbstractDiscrepancyModel.effect_grid`."""
 LINE_SEARCH = 0.5 ** np.arange(6)
 """Step lengths tried, longest first, by the augmented fits of a model with an effect grid."""
+SEARCHED_STEPS_FACTOR = 4
+"""The augmented fits of a model with an effect grid take up to this many times its
+``fit_steps`` while the last step still changes χ² by more than :data:`GN_TOL`."""
 
 
 def _grid_profiles(model, effects, train, w_tr):
@@ -268,28 +271,42 @@ def _fit_chord(args, keep, ridge, z0, a, d, factor):
                         lambda: run(functools.partial(_newton_step, args, keep, ridge)))
 
 
-def _searched_step(args, keep, ridge, carry, _):
-    """One full Gauss–Newton step shortened by backtracking: the longest of :data:`LINE_SEARCH`
-    that lowers χ², else none. Returns the new ``(z, χ² before the step)``."""
-    z, _ = carry
+def _searched_step(args, keep, ridge, z, chi2):
+    """One full Gauss–Newton step from ``z`` (whose χ² is ``chi2``) shortened by backtracking:
+    the longest of :data:`LINE_SEARCH` that lowers χ², else none. Returns the new ``z`` and its χ²."""
     r = _white_residual(z, args)
-    chi2 = jnp.sum(r**2)
     dz = _full_step(z, r, args, keep, ridge)
     trial = jax.vmap(lambda t: jnp.sum(_white_residual(z + t * dz, args) ** 2))(jnp.asarray(LINE_SEARCH))
     ok = jnp.isfinite(trial) & (trial < chi2)
+    best = jnp.argmax(ok)
     # NOTE: where no trial lowers χ² the step is not taken at all: ``z + dz·0`` would still carry
     # a non-finite step (a Jacobian through a mode that vanishes) into every later step
-    moved = z + dz * jnp.asarray(LINE_SEARCH)[jnp.argmax(ok)]
-    return (jnp.where(jnp.any(ok), moved, z), chi2), None
+    moved = z + dz * jnp.asarray(LINE_SEARCH)[best]
+    return jnp.where(jnp.any(ok), moved, z), jnp.where(jnp.any(ok), trial[best], chi2)
 
 
 def _fit_searched(args, keep, ridge, z_start, n_steps):
-    """The fit of a model with an effect grid: ``n_steps`` backtracking Gauss–Newton steps from
-    ``z_start`` (:func:`_start`): ``(z (n,), χ², converged)``."""
-    step = functools.partial(_searched_step, args, keep, ridge)
-    (z, chi2_prev), _ = jax.lax.scan(step, (z_start, jnp.inf), None, length=n_steps)
-    chi2 = jnp.sum(_white_residual(z, args) ** 2)
-    return z, chi2, _converged(chi2_prev, chi2)
+    """The fit of a model with an effect grid: backtracking Gauss–Newton steps from ``z_start``
+    (:func:`_start`), ``n_steps`` of them and then more, up to :data:`SEARCHED_STEPS_FACTOR` ×
+    ``n_steps``, until the last one changes χ² by at most :data:`GN_TOL`: ``(z (n,), χ², converged)``.
+
+    NOTE: measured on a 200 s cabin record (seed 0): six steps left ``cable_inertia`` at
+    μ = 1.003 and a node lag of 0.08 (not converged; 91 % of the gap), where the same fit run on
+    converges to μ = 0.9999 and closes it. Fits that converge within ``n_steps`` are unchanged."""
+    most = SEARCHED_STEPS_FACTOR * n_steps
+
+    def more(carry):
+        i, _, prev, now = carry
+        return (i < n_steps) | ((i < most) & ~_converged(prev, now))
+
+    def step(carry):
+        i, z, _, now = carry
+        z, chi2 = _searched_step(args, keep, ridge, z, now)
+        return i + 1, z, now, chi2
+
+    chi2_0 = jnp.sum(_white_residual(z_start, args) ** 2)
+    _, z, prev, chi2 = jax.lax.while_loop(more, step, (0, z_start, jnp.inf, chi2_0))
+    return z, chi2, _converged(prev, chi2)
 
 
 def _prepare(model, effects, train, test, z_base):
