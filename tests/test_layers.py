@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "stewart_jax"
 
-CORE = {"_math", "_units", "_checks", "_files", "_linalg", "_special", "_runtime", "_cache"}
+CORE = {"_math", "_units", "_checks", "_files", "_linalg", "_special", "_runtime", "_cache", "_memory"}
 """The lowest layer: modules directly in ``stewart_jax/``; they import only each other."""
 
 MAY_IMPORT: dict[str, set[str]] = {
