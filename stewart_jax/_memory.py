@@ -19,3 +19,12 @@ def available_memory_bytes() -> int | None:
             return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
         except (ValueError, OSError, AttributeError):
             return None
+
+
+def most_that_fit(bytes_each: float) -> tuple[int, int] | None:
+    """How many items of ``bytes_each`` bytes fit in :data:`MEMORY_SHARE` of the available memory,
+    and that memory (bytes); ``None`` where it cannot be read."""
+    available = available_memory_bytes()
+    if available is None:
+        return None
+    return int(MEMORY_SHARE * available / bytes_each), available

@@ -141,9 +141,10 @@ def test_segments_outside_what_converges_and_fits_are_refused(argv, says, capsys
 
 def test_a_free_decay_too_long_for_memory_says_how_long_it_can_take(monkeypatch):
     # 10⁶ s at the integrator's 1 ms step died allocating 48 GB inside XLA; refused before
+    from stewart_jax import _memory
     from stewart_jax.cable_robot import _free_decay as fd
 
-    monkeypatch.setattr(fd, "available_memory_bytes", lambda: 4_000_000_000)
+    monkeypatch.setattr(_memory, "available_memory_bytes", lambda: 4_000_000_000)
     with pytest.raises(ValueError, match=r"can simulate up to 5208 s at this step") as e:
         fd.check_steps(10**9, 1e-3)
     assert "384 GB" in str(e.value)

@@ -96,13 +96,15 @@ def test_a_long_record_gets_few_starts_the_lumped_share_among_them(modal):
 
 
 def test_a_record_too_long_for_memory_is_refused_with_the_longest_it_can_take(modal, monkeypatch):
-    monkeypatch.setattr(cr, "available_memory_bytes", lambda: 2_000_000_000)
+    from stewart_jax import _memory
+
+    monkeypatch.setattr(_memory, "available_memory_bytes", lambda: 2_000_000_000)
     t = np.arange(40_000) * 0.1
     pose = np.zeros((t.size, 6))
     pose[:, 0] = 20.0 * np.cos(2 * np.pi * 0.13 * t)  # mm
     pose[:, 3] = 0.02 * np.cos(2 * np.pi * 0.13 * t)  # degrees
     data = cr.record_data(t, pose[:, :3], pose[:, 3:])
-    most = int(cr.MEMORY_SHARE * 2_000_000_000 / cr.BYTES_PER_SAMPLE)
+    most = int(_memory.MEMORY_SHARE * 2_000_000_000 / cr.BYTES_PER_SAMPLE)
     with pytest.raises(ValueError, match=f"up to {most} samples") as e:
         cabin_record_model(data, POS, modal=modal)
     assert "phase" not in str(e.value) and "starting points" not in str(e.value)

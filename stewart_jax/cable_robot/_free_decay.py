@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._memory import MEMORY_SHARE, available_memory_bytes
+from .._memory import most_that_fit
 from ._cabin_modal import DAMPING_GROUPS, damping_group_shares
 from ._catenary import solve_catenary
 from ._lumped import lumped_modes
@@ -102,10 +102,10 @@ def check_steps(n_steps: int, dt: float) -> None:
     """Refuse, before the integration, a free decay of ``n_steps`` steps of ``dt`` whose record
     would not fit in :data:`~stewart_jax._memory.MEMORY_SHARE` of this machine's memory, saying
     how long a decay it can take."""
-    available = available_memory_bytes()
-    if available is None:
+    fit = most_that_fit(BYTES_PER_STEP)
+    if fit is None:
         return
-    most = int(MEMORY_SHARE * available / BYTES_PER_STEP)
+    most, available = fit
     if n_steps > most:
         raise ValueError(f"{n_steps} integrator steps of {dt:.3g} s need about {n_steps * BYTES_PER_STEP / 1e9:.3g} GB "
                          f"and this machine has {available / 1e9:.1f} GB available: it can simulate up to "

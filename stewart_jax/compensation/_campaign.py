@@ -29,7 +29,7 @@ import jax
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._table import AIR_TEMPERATURE_DEGC, OFFSET_COLUMNS, CompensationTable
+from ._table import AIR_TEMPERATURE_SLIP, OFFSET_COLUMNS, CompensationTable, not_air_temperature
 
 SIGNS = {
     "correction": "each row is the offset the controller adds: compensated = uncompensated + offset",
@@ -124,12 +124,10 @@ def check_campaign(c: Campaign, where: str = "campaign") -> None:
     bad = np.flatnonzero((c.elevation_deg < 0) | (c.elevation_deg > 90))
     if bad.size:
         raise ValueError(f"{where}: elevation must be in [0, 90] deg; row {bad[0] + 1} has {c.elevation_deg[bad[0]]}")
-    lo, hi = AIR_TEMPERATURE_DEGC
-    bad = np.flatnonzero((c.temperature_degC < lo) | (c.temperature_degC > hi))
+    bad = np.flatnonzero(not_air_temperature(c.temperature_degC))
     if bad.size:
-        raise ValueError(f"{where}: row {bad[0] + 1} has temperature_degC {c.temperature_degC[bad[0]]}, no air "
-                         f"temperature in °C (a telescope meets {lo:g} to {hi:g} °C): a value in kelvin is 273.15 "
-                         "more")
+        raise ValueError(f"{where}: row {bad[0] + 1} has temperature_degC {c.temperature_degC[bad[0]]}, "
+                         f"{AIR_TEMPERATURE_SLIP}")
 
 
 def campaign_csv(c: Campaign, comments: tuple[str, ...] = ()) -> str:

@@ -41,6 +41,17 @@ AIR_TEMPERATURE_DEGC = (-90.0, 70.0)
 """Air temperatures a telescope can meet (°C; Earth's records are −89 and +57): a value outside is
 a unit slip (kelvin, °F) and is refused, not extrapolated."""
 
+
+def not_air_temperature(t: np.ndarray) -> np.ndarray:
+    """Where temperatures ``t`` (°C) lie outside :data:`AIR_TEMPERATURE_DEGC`."""
+    lo, hi = AIR_TEMPERATURE_DEGC
+    return (t < lo) | (t > hi)
+
+
+AIR_TEMPERATURE_SLIP = (f"not an air temperature in °C (a telescope meets {AIR_TEMPERATURE_DEGC[0]:g} to "
+                        f"{AIR_TEMPERATURE_DEGC[1]:g} °C): a value in kelvin is 273.15 more, in °F (t − 32) × 5/9")
+"""What a temperature outside :data:`AIR_TEMPERATURE_DEGC` is said to be."""
+
 HEXAPODS = {"camera": "camera_config", "m2": "m2_config"}
 """The table of each hexapod in a configuration file."""
 
@@ -116,11 +127,8 @@ class CompensationTable(eqx.Module):
         if np.any((e < 0.0) | (e > 90.0)):
             raise ValueError(f"elevation must be in [0, 90] deg (the controller refuses other values), got "
                              f"{e[(e < 0.0) | (e > 90.0)][:3].tolist()}")
-        lo, hi = AIR_TEMPERATURE_DEGC
-        if np.any((t < lo) | (t > hi)):
-            bad = t[(t < lo) | (t > hi)][:3].tolist()
-            raise ValueError(f"temperature_degC {bad} is not an air temperature in °C (a telescope meets {lo:g} to "
-                             f"{hi:g} °C): a value in kelvin is 273.15 more, in °F (t − 32) × 5/9")
+        if np.any(not_air_temperature(t)):
+            raise ValueError(f"temperature_degC {t[not_air_temperature(t)][:3].tolist()} is {AIR_TEMPERATURE_SLIP}")
         index = self.filter_index(filter, shape)
         return _offsets_jit(self, *(jnp.broadcast_to(v, shape) for v in (e, r, a, t)), jnp.asarray(index))
 

@@ -57,7 +57,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._memory import MEMORY_SHARE, available_memory_bytes
+from .._memory import most_that_fit
 from ..cable_robot._cabin_modal import (
     DAMPING_GROUPS,
     CabinModalModel,
@@ -394,12 +394,12 @@ def record_frequencies(data: CabinRecordData, modal: CabinModalModel, sigma_mm: 
 
 def check_memory(n_samples: int, rate_hz: float) -> None:
     """Refuse, before any fit, a record of ``n_samples`` whose fits would take more than
-    :data:`MEMORY_SHARE` of this machine's available memory, saying how long a record (samples,
+    :data:`~stewart_jax._memory.MEMORY_SHARE` of this machine's available memory, saying how long a record (samples,
     and minutes at ``rate_hz``) it can take."""
-    available = available_memory_bytes()
-    if available is None:
+    fit = most_that_fit(BYTES_PER_SAMPLE)
+    if fit is None:
         return
-    most = int(MEMORY_SHARE * available / BYTES_PER_SAMPLE)
+    most, available = fit
     if n_samples > most:
         raise ValueError(
             f"the record has {n_samples} samples; diagnosing it needs about "
