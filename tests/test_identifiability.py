@@ -110,3 +110,36 @@ def test_o1_plan_beats_random_plan_of_same_size(geoms):
     assert np.all(err_opt.max(axis=0) < err_rnd.max(axis=0))
     with pytest.raises(ValueError, match="m must satisfy"):
         plan_poses_optimal(nom, cand, 5)
+
+
+def test_covariance_about_the_truth_with_held_directions():
+    """``total_covariance`` against a Monte Carlo of the estimator it describes: a linear model
+    whose truth is spread by the threshold's prior scales in every direction, fitted by the
+    truncated (held-at-nominal) least squares; the covariance of estimate minus truth over 20 000
+    draws matches it to sampling error, held directions and the control-error prediction included."""
+    from stewart_jax.calibration._determined import determine, restricted_covariance, total_covariance
+
+    rng = np.random.default_rng(3)
+    n, rows, t = 6, 40, 0.5
+    scale = np.array([1.0, 1.0, 1e-3, 1.0, 1e-3, 1.0])
+    q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    u, _ = np.linalg.qr(rng.normal(size=(rows, n)))
+    jac = u @ np.diag([50.0, 20.0, 6.0, 2.5, 1.2, 0.3]) @ q.T / scale  # whitened, parameters' units
+    det = determine(jac, scale, t)
+    assert det.n_determined == 4
+    basis = det.step_basis
+    draws = 20_000
+    truth = t * scale * rng.normal(size=(draws, n))
+    data = truth @ jac.T + rng.normal(size=(draws, rows))
+    a = np.linalg.lstsq(jac @ basis, data.T, rcond=None)[0]  # the fit over the determined directions
+    err = (basis @ a).T - truth
+    cov = total_covariance(det, restricted_covariance(det, jac[:, None, :]))
+    sample = err.T @ err / draws
+    std = np.sqrt(np.diag(cov))
+    # NOTE: a sample covariance of 20 000 Gaussian draws is within ~4·sqrt(2/20 000) = 4 % of each
+    # entry's scale (σ_i·σ_j); 6 % leaves room for the largest of 36 entries.
+    np.testing.assert_allclose(sample / np.outer(std, std), cov / np.outer(std, std), atol=0.06)
+    sens = rng.normal(size=(3, n)) / scale  # a control error's sensitivity to the parameters
+    np.testing.assert_allclose(np.diag(sens @ sample @ sens.T), np.diag(sens @ cov @ sens.T), rtol=0.06)
+    data_only = np.diag(sens @ restricted_covariance(det, jac[:, None, :]) @ sens.T)
+    assert np.all(data_only < 0.8 * np.diag(sens @ sample @ sens.T))  # what the data's covariance alone misses

@@ -47,7 +47,7 @@ from ._determined import (
     prior_scale,
     refine_in_subspace,
     restricted_covariance,
-    total_std,
+    total_covariance,
     within_prior,
 )
 from ._identifiability import KinematicSnapshot, kinematic_snapshot, report_from_arrays
@@ -84,8 +84,10 @@ class CalibrationAssessment(NamedTuple):
       large *or* improbably small (p < :data:`FIT_P_VALUE` in either tail: a file in metres fits
       1000× below the noise).
     - ``warnings``: one sentence per problem, each saying what to do.
-    - ``param_cov``: ``Float[np.ndarray, "n n"]``, the predicted parameter covariance of the
-      identifiability report (NaN where the residuals are not finite).
+    - ``param_cov``: ``Float[np.ndarray, "n n"]``, the predicted parameter covariance about the
+      truth: the identifiability report's, or, where directions are held at nominal, the data's on
+      the determined directions plus the prior's on the held ones (``_determined.total_covariance``;
+      ``param_std`` is the square root of its diagonal). NaN where the residuals are not finite.
     """
 
     status: str
@@ -326,8 +328,8 @@ def _held_report(det, jac, noise, names, units, held: bool):
     where = describe_held(det, names, units)
     scales = "1 mm for a length, 1 mrad for an angle"
     if held:
-        cov = restricted_covariance(det, jac, noise)
-        return alone, total_std(det, cov), cov, (
+        cov = total_covariance(det, restricted_covariance(det, jac, noise))
+        return alone, np.sqrt(np.maximum(np.diag(cov), 0.0)), cov, (
             f"the data determine {k} of {n} parameter directions to better than the prior scale ({scales}); "
             f"the other {n - k} are held at nominal: {'; '.join(where[:6])}{' …' if len(where) > 6 else ''}. "
             "Each std includes the prior's share on the held directions; measure more varied poses to determine them")

@@ -19,7 +19,8 @@ of ``diag(s)·v_i`` over the determined directions (the truncated-SVD solution i
 the minimum-norm update). Its covariance is ``diag(s)·V_k·Σ_k⁻²·V_kᵀ·diag(s)`` (for a weighted
 fit; the sandwich of :func:`restricted_covariance` for an unweighted one), so that no parameter's
 data standard deviation exceeds ``DETERMINED_STD·s_k``. Against the truth the held part of a
-parameter keeps its prior uncertainty, ``s_k²·Σ_held v_ik²``, which :func:`total_std` adds.
+parameter keeps its prior uncertainty, ``(t·s_k)²·Σ_held v_ik²`` (``t`` the threshold), which
+:func:`total_covariance` and :func:`total_std` add.
 """
 
 from __future__ import annotations
@@ -138,11 +139,21 @@ def restricted_covariance(
     return 0.5 * (cov + cov.T)
 
 
+def total_covariance(det: Determination, cov: np.ndarray) -> np.ndarray:
+    """``(n, n)``: the covariance about the truth, the data's ``cov`` (on the determined directions)
+    plus the prior's on the held ones, ``t²·diag(s)·V_heldᵀ·V_held·diag(s)`` (``t`` the
+    determination's ``threshold``: a held direction keeps the spread the threshold stands for).
+
+    NOTE: a prediction made from the data's covariance alone (a control error at a pose) omits what
+    holding a direction at nominal costs there; this one includes it."""
+    held = det.scale[:, None] * det.held.T if len(det.held) else np.zeros((len(det.scale), 0))
+    return np.asarray(cov) + det.threshold**2 * (held @ held.T)
+
+
 def total_std(det: Determination, cov: np.ndarray) -> np.ndarray:
-    """``(n,)``: each parameter's standard deviation about the truth: the data's (``cov``) plus the
-    prior's on the held directions, ``(t·s_k)²·Σ_held v_ik²`` (``t`` the determination's
-    ``threshold``: a held direction keeps the spread the threshold stands for)."""
-    return np.sqrt(np.maximum(np.diag(cov), 0.0) + (det.threshold * det.scale) ** 2 * det.held_share())
+    """``(n,)``: each parameter's standard deviation about the truth, the square root of the
+    diagonal of :func:`total_covariance`."""
+    return np.sqrt(np.maximum(np.diag(total_covariance(det, cov)), 0.0))
 
 
 def refine_in_subspace(

@@ -50,7 +50,14 @@ from ..mechanism._abstract import AbstractMechanism
 from ..mechanism._kinematics import forward_kinematics
 from ._assessment import FIT_P_VALUE, IDENTIFIABLE_TOL, RANK_RTOL, CalibrationAssessment
 from ._csv import STROKE_COLUMNS
-from ._determined import Determination, describe_held, determine, prior_scale, restricted_covariance, total_std
+from ._determined import (
+    Determination,
+    describe_held,
+    determine,
+    prior_scale,
+    restricted_covariance,
+    total_covariance,
+)
 
 POINT_COLUMNS = ("pose", "target", *STROKE_COLUMNS, "x", "y", "z")
 """The columns a points file must have (``pose`` = ``ref`` on a base reference's row)."""
@@ -439,8 +446,8 @@ def _assess(jac: np.ndarray, r: np.ndarray, names: tuple[str, ...], det: Determi
     rank = int(np.sum(s > RANK_RTOL * s[0]))
     null = vt[rank:]
     identifiable = np.sum(null**2, axis=0) <= IDENTIFIABLE_TOL
-    cov = restricted_covariance(det, jac[:, None, :])
-    std = np.where(identifiable, total_std(det, cov), np.nan)
+    cov = total_covariance(det, restricted_covariance(det, jac[:, None, :]))
+    std = np.where(identifiable, np.sqrt(np.maximum(np.diag(cov), 0.0)), np.nan)
     if rank == n:
         identifiable = det.held_share() <= 0.01
     chi2 = float(r @ r)
