@@ -173,9 +173,16 @@ def _write(path, rows, header="time,x,y,z,rx,ry,rz"):
     return path
 
 
+def _swinging(t):
+    """``(len(t), 6)``: a cabin swinging 10 mm and 0.05° at 0.2 Hz (mm, degrees), a size the record's
+    checks accept, so that each bad record below is refused for its own fault."""
+    s = np.sin(2 * np.pi * 0.2 * np.asarray(t))[:, None]
+    return s * np.array([10.0, 10.0, 5.0, 0.05, 0.05, 0.05])
+
+
 def test_bad_records_are_refused_by_name(tmp_path, modal):
     t = np.arange(0.0, 20.0, 0.1)
-    rows = np.column_stack([t, np.zeros((t.size, 6))])
+    rows = np.column_stack([t, _swinging(t)])
     with pytest.raises(ValueError, match=r"missing \['rz'\]"):
         read_cabin_record(_write(tmp_path / "a.csv", rows[:, :6], "time,x,y,z,rx,ry"))
     back = rows.copy()
@@ -187,7 +194,7 @@ def test_bad_records_are_refused_by_name(tmp_path, modal):
         cabin_record_model(read_cabin_record(_write(tmp_path / "c.csv", gap)), POS, modal=modal)
     with pytest.raises(ValueError, match="too short to resolve the lowest mode"):
         cabin_record_model(read_cabin_record(_write(tmp_path / "d.csv", rows[:50])), POS, modal=modal)
-    slow = np.column_stack([np.arange(0.0, 20.0, 0.5), np.zeros((40, 6))])
+    slow = np.column_stack([np.arange(0.0, 20.0, 0.5), _swinging(np.arange(0.0, 20.0, 0.5))])
     with pytest.raises(ValueError, match="Nyquist"):
         cabin_record_model(read_cabin_record(_write(tmp_path / "e.csv", slow)), POS, modal=modal)
     nan = rows.copy()
