@@ -104,7 +104,9 @@ BYTES_PER_SAMPLE = 60_000
 """Memory the workflow's fits take per sample of a record (bytes). An upper estimate: the
 whitened Jacobians of every unknown on the training and held-out rows, the whiteners and the
 candidates' held-out residuals, a few kB per sample, taken ten times for the fits' temporaries
-(the modal sums themselves are bounded by their block, not the record)."""
+(the modal sums themselves are bounded by their block, not the record). Measured: a diagnosing
+process's peak grew by about 32 kB per sample between records of 6 000 and 36 000 samples
+(``benchmarks/fast_cabin_record_length.py --durations 600,1800,3600``)."""
 MIN_PERIODS = 2.0
 """A record must last this many periods of the base model's lowest mode."""
 MAX_JITTER = 0.05
