@@ -146,7 +146,7 @@ def total_covariance(det: Determination, cov: np.ndarray) -> np.ndarray:
 
     NOTE: a prediction made from the data's covariance alone (a control error at a pose) omits what
     holding a direction at nominal costs there; this one includes it."""
-    held = det.scale[:, None] * det.held.T if len(det.held) else np.zeros((len(det.scale), 0))
+    held = det.scale[:, None] * det.held.T  # (n, n − k); no columns when nothing is held
     return np.asarray(cov) + det.threshold**2 * (held @ held.T)
 
 
