@@ -13,7 +13,9 @@ correction of the base references' Kabsch fit) and every reached pose — with t
 - ``--prior``: the parameters against nominal at the prior scale (1 mm, 1 mrad), the maximum a
   posteriori fit with the library's stated prior;
 - ``--isotropic``: the points weighted isotropically at σ∥ (5 µm) instead, a simpler estimator that
-  uses less of what is known about the noise (its χ² is still reported under the anisotropic noise).
+  uses less of what is known about the noise (its χ² is still reported under the anisotropic noise);
+- ``--determined-std T``: the library holds the directions whose data std exceeds ``T`` prior
+  scales (``calibrate_points(determined_std=T)``; default its own, half a prior scale).
 
 The case (Lee & al. style laser-tracker set-up): a hexapod given as a geometry, 60 poses in
 its travel, 4 platform targets and 3 base references, the tracker ~3 m away and turned ~34°, σ =
@@ -24,7 +26,7 @@ its worst value and its RMS per component (the RMS ratio pooled over seeds), the
 residuals at each optimum, and the coverage of each fit's predicted control-error uncertainty
 (share of |error| ≤ 2σ over poses and components; 95.4 % when right).
 
-    python benchmarks/tracker_points_ml.py [--seeds 10] [--prior] [--isotropic]
+    python benchmarks/tracker_points_ml.py [--seeds 10] [--prior] [--isotropic] [--determined-std T]
         [--geometry rubin_camera|rubin_m2|nominal|rotary_stewart]
     python benchmarks/tracker_points_ml.py --compare-references A.json B.json
 """
@@ -221,10 +223,11 @@ def case(geometry, seed):
     return nominal, true, targets, sim.data, val
 
 
-def one(geometry, seed, prior, isotropic=False):
+def one(geometry, seed, prior, isotropic=False, determined_std=None):
     nominal, true, targets, data, val = case(geometry, seed)
     t0 = time.perf_counter()
-    cal = calibrate_points(data, targets, nominal, range_um=5.0, across_um_per_m=2.0)
+    held = {} if determined_std is None else {"determined_std": determined_std}
+    cal = calibrate_points(data, targets, nominal, range_um=5.0, across_um_per_m=2.0, **held)
     t_lib = time.perf_counter() - t0
     t0 = time.perf_counter()
     ref, cov_ref, chi2_ref = JointFit(data, targets, nominal, 5.0, 2.0, prior, isotropic).solve()
@@ -270,6 +273,8 @@ def main():
     ap.add_argument("--geometry", default="rubin_camera")
     ap.add_argument("--prior", action="store_true", help="the reference with the library's prior (MAP)")
     ap.add_argument("--isotropic", action="store_true", help="the reference's points weighted isotropically at 5 µm")
+    ap.add_argument("--determined-std", type=float, default=None,
+                    help="the library's threshold, prior scales (default calibrate_points's own)")
     ap.add_argument("--compare-references", nargs=2, metavar="RESULT_JSON",
                     help="compare the references of two result files (nothing is fitted)")
     args = ap.parse_args()
@@ -277,7 +282,7 @@ def main():
         return compare_references(*args.compare_references)
     rows = []
     for seed in range(args.seeds):
-        r = one(args.geometry, seed, args.prior, args.isotropic)
+        r = one(args.geometry, seed, args.prior, args.isotropic, args.determined_std)
         rows.append(r)
         print(f"seed {seed}: ratio worst component {r['ratio_worst_component']:.2f}, χ² lib {r['chi2_library']:.1f} "
               f"ref {r['chi2_reference']:.1f}, param error max lib {r['param_error_max_mm_library']:.2f} mm "
@@ -304,10 +309,13 @@ def main():
     for r in rows:
         r.pop("z_library"), r.pop("z_reference")
     name = (f"tracker_points_ml_{args.geometry}" + ("_prior" if args.prior else "")
-            + ("_isotropic" if args.isotropic else ""))
+            + ("_isotropic" if args.isotropic else "")
+            + ("" if args.determined_std is None else f"_held{args.determined_std:g}"))
     lines = [f"# Tracker points: library vs independent joint fit ({args.geometry}"
              + (", reference with the prior" if args.prior else "")
-             + (", reference weighted isotropically" if args.isotropic else "") + ")", "",
+             + (", reference weighted isotropically" if args.isotropic else "")
+             + ("" if args.determined_std is None else f", library holding above {args.determined_std:g} prior scales")
+             + ")", "",
              f"{args.seeds} seeds; worst validation control error per component over 40 poses.", "",
              "| seed | library (µm×3, ″×3) | reference | worst ratio | χ² lib / ref | held directions |",
              "|---|---|---|---|---|---|"]
@@ -318,6 +326,7 @@ def main():
                      f"{r['unknowns'] - (r['determined_directions'] or r['unknowns'])} |")
     lines += ["", "| summary | value |", "|---|---|"] + [f"| {k} | {v} |" for k, v in summary.items()]
     write_results(name, {"geometry": args.geometry, "prior": args.prior, "isotropic": args.isotropic,
+                         "determined_std": args.determined_std,
                          "summary": summary, "runs": rows},
                   "\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -143,6 +143,27 @@ def test_predicted_uncertainty_covers_the_error(run):
     assert sum(p > 1e-3 for p in p_values) >= 19
 
 
+@pytest.mark.slow  # two more compilations of the fit (one per number of determined directions): 80 s
+def test_determined_std_sets_what_is_held(run):
+    """Fitting every direction (a threshold no direction exceeds) is the plain least-squares fit: all
+    48 unknowns determined, and a χ² lower than the default's by about one per direction the default
+    holds (fitting k more directions to noise lowers χ² by χ²_k, mean k, std √(2k))."""
+    data, targets, nominal = run["data"], run["targets"], run["nominal"]
+    held = calibrate_points(data, targets, nominal, range_um=RANGE_UM, across_um_per_m=ACROSS_UM_PER_M)
+    free = calibrate_points(data, targets, nominal, range_um=RANGE_UM, across_um_per_m=ACROSS_UM_PER_M,
+                            determined_std=1e9)
+    k = nominal.n_params + 6 - held.assessment.n_determined
+    assert free.assessment.n_determined == nominal.n_params + 6 and k > 0
+    assert np.all(np.isfinite(free.assessment.param_cov))
+    assert 0 < held.chi2 - free.chi2 < k + 4 * np.sqrt(2 * k)
+
+
+def test_determined_std_must_be_positive(run):
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="determined_std must be a positive, finite number"):
+            calibrate_points(run["data"], run["targets"], run["nominal"], determined_std=bad)
+
+
 # ---- bad input ---------------------------------------------------------------------------------------
 
 

@@ -395,16 +395,22 @@ def calibrate_points(
     range_um: float = DEFAULT_TRACKER_SIGMA[0],
     across_um_per_m: float = DEFAULT_TRACKER_SIGMA[1],
     max_steps: int = 100,
+    determined_std: float = POINTS_DETERMINED_STD,
 ) -> PointCalibration:
     """Calibrate ``nominal``'s parameters and the tracker registration from target points.
 
     The whitened residual of every platform point and base reference (module docstring) is
-    minimised by the Levenberg–Marquardt, from the starts of :func:`start_values`. Poses with one
-    or two targets are used. Raises ``ValueError`` when the points are fewer than the unknowns.
+    minimised by the Levenberg–Marquardt, from the starts of :func:`start_values`, in the directions
+    whose data std is at most ``determined_std`` prior scales; the others are held at nominal. Poses
+    with one or two targets are used. Raises ``ValueError`` when the points are fewer than the
+    unknowns, or ``determined_std`` is not a positive, finite number (a large one holds no direction
+    the data constrain at all).
     """
     from ..optimise._result import status_name
 
     n = nominal.n_params
+    if not (np.isfinite(determined_std) and determined_std > 0):
+        raise ValueError(f"determined_std must be a positive, finite number of prior scales, got {determined_std}")
     n_obs = 3 * (len(data.points) + len(data.references))
     if n_obs < n + 6:
         raise ValueError(f"{len(data.points)} points and {len(data.references)} references give {n_obs} residuals "
@@ -415,7 +421,7 @@ def calibrate_points(
     n_pts, n_pad = len(data.points), problem.points.shape[0]
     rows = np.concatenate([np.arange(3 * n_pts), 3 * n_pad + np.arange(3 * len(data.references))])
     det = determine(np.asarray(_jacobian_at(problem, nominal, y0))[rows], prior_scale(nominal.param_units, 6),
-                    POINTS_DETERMINED_STD)
+                    determined_std)
     res, y, jac, r, pts, poses, rot, t = _solve(problem, nominal, y0, jnp.asarray(det.step_basis), max_steps,
                                                 _INITIAL_DAMPING)
     y = np.asarray(y)
