@@ -11,7 +11,8 @@ centre, ζ = 0.005, sampled at ``--rate-hz``; white tracker noise σ per positio
 - ``impulse``: the cabin struck at the static pose (10, 5, 2 mm/s), the cables at rest;
 - ``none``: the paper's quasi-static cables released from the offset (nothing may be named).
 
-Lumped-mass records use ``--record-segments`` segments per cable, the model ``--segments``.
+Lumped-mass records use ``--record-segments`` segments per cable, the model ``--segments`` (a
+comma-separated list: each model diagnoses the same records).
 Each cell runs the workflow (30 % held out) on the record's first T seconds.
 
     python benchmarks/fast_cabin_record_length.py --durations 20,60,200 --noise-mm 1 --seeds 1
@@ -64,7 +65,7 @@ def _decay(release, params, n_rec, t_max, dt):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--segments", type=int, default=8, help="segments per cable of the model")
+    ap.add_argument("--segments", default="8", help="segments per cable of the model(s), comma-separated")
     ap.add_argument("--record-segments", type=int, default=None, help="segments of the lumped records")
     ap.add_argument("--releases", default="offset-equilibrium,offset-rest,impulse,none")
     ap.add_argument("--durations", default="20,60,200", help="record lengths, s")
@@ -77,13 +78,16 @@ def main() -> None:
     args = ap.parse_args()
     durations = [float(v) for v in args.durations.split(",")]
     noises = [float(v) for v in args.noise_mm.split(",")]
-    n_rec = args.segments if args.record_segments is None else args.record_segments
+    models = [int(v) for v in args.segments.split(",")]
+    n_rec = models[0] if args.record_segments is None else args.record_segments
     dt = args.dt if args.dt is not None else (5e-3 if n_rec <= 8 else None)
     name = "fast_cabin_record_length" + (f"_{args.tag}" if args.tag else "")
     params = paper_fast_params()
-    t0 = time.perf_counter()
-    modal = cabin_modal_model(params, POS, args.segments)
-    setup_s = time.perf_counter() - t0
+    modal, setup_s = {}, {}
+    for n_model in models:
+        t0 = time.perf_counter()
+        modal[n_model] = cabin_modal_model(params, POS, n_model)
+        setup_s[n_model] = time.perf_counter() - t0
     cells = []
     for release in args.releases.split(","):
         t1 = time.perf_counter()
@@ -92,12 +96,12 @@ def main() -> None:
         for duration in durations:
             keep = dec.time <= duration + 1e-9
             part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])
-            for sigma in noises:
+            for sigma, n_model in ((s_, m_) for s_ in noises for m_ in models):
                 runs = []
                 for s in range(args.seeds):
                     data = read_cabin_record(part.sample(args.rate_hz, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s))
                     t2 = time.perf_counter()
-                    model = cabin_record_model(data, POS, modal=modal, sigma_um=1e3 * sigma,
+                    model = cabin_record_model(data, POS, modal=modal[n_model], sigma_um=1e3 * sigma,
                                                sigma_arcsec=36.0 * sigma)
                     t3 = time.perf_counter()
                     rep = diagnose(data, model, seed=s)
@@ -114,31 +118,34 @@ def main() -> None:
                                  "model_s": t3 - t2, "diagnose_s": t4 - t3,
                                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024})
                 target = None if release == "none" else "cable_inertia"
-                cell = {"release": release, "duration_s": duration, "sigma_mm": sigma, "runs": runs,
+                cell = {"release": release, "duration_s": duration, "sigma_mm": sigma, "model_segments": n_model,
+                        "runs": runs,
                         "simulation_s": sim_s,
                         "named_right": sum(r["named"] == target for r in runs),
                         "named_wrong": sum(r["named"] not in (target, None) for r in runs)}
                 cells.append(cell)
-                print(f"{release:20s} T={duration:6.0f} s σ={sigma:4.1f} mm: right {cell['named_right']}/{len(runs)} "
+                print(f"{release:20s} T={duration:6.0f} s σ={sigma:4.1f} mm N={n_model}: "
+                      f"right {cell['named_right']}/{len(runs)} "
                       f"wrong {cell['named_wrong']}, diagnose {np.median([r['diagnose_s'] for r in runs]):.0f} s",
                       flush=True)
-                _write(name, cells, args, n_rec, setup_s)
+                _write(name, cells, args, n_rec, models, setup_s)
 
 
-def _write(name, cells, args, n_rec, setup_s) -> None:
+def _write(name, cells, args, n_rec, models, setup_s) -> None:
     lines = [
         "# FAST cabin records of practical length",
         "",
-        f"Lumped-mass records (N = {n_rec}), the model with N = {args.segments}; at (0, 0, 140) m, ζ = 0.005, "
+        f"Lumped-mass records (N = {n_rec}), the model with N = {', '.join(map(str, models))}; at (0, 0, 140) m, "
+        "ζ = 0.005, "
         f"{args.rate_hz:g} Hz; {args.seeds} noise seed(s) per cell, rotation noise 0.01° per mm. *right*: "
         "`cable_inertia` named on a lumped record, nothing on the quasi-static one (`none`); μ, β: the fitted share "
         "of the cables' mass and lag of their nodes (truth 1, and 0 for offset-equilibrium, 1 for offset-rest and "
         "impulse); gaps: held-out RMS over the six coordinates (µm, µrad), median; time: `cabin_record_model` "
         "(record's modes and starts) + `diagnose`, wall clock on the machine below, median.",
         "",
-        "| release | T (s) | samples | σ (mm) | right | wrong | μ | β | gap before | gap after | floor | model (s) "
-        "| diagnose (s) | peak RSS (MB) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| release | T (s) | samples | σ (mm) | N model | right | wrong | μ | β | gap before | gap after | floor "
+        "| model (s) | diagnose (s) | peak RSS (MB) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for c in cells:
         r = c["runs"]
@@ -148,11 +155,13 @@ def _write(name, cells, args, n_rec, setup_s) -> None:
 
         lines.append(
             f"| {c['release']} | {c['duration_s']:.0f} | {r[0]['samples']} | {c['sigma_mm']:g} | "
+            f"{c['model_segments']} | "
             f"{c['named_right']}/{len(r)} | {c['named_wrong']} | {med('mass_share'):.3f} | {med('node_lag'):.2f} | "
             f"{med('gap_before_um_urad'):.0f} | {med('gap_after_um_urad'):.0f} | {med('noise_floor_um_urad'):.0f} | "
             f"{med('model_s'):.0f} | {med('diagnose_s'):.0f} | {max(x['peak_rss_mb'] for x in r):.0f} |")
-    lines += ["", f"Modal model (N = {args.segments}, statics, tables, compile): {setup_s:.0f} s."]
-    write_results(name, {"segments": args.segments, "record_segments": n_rec, "rate_hz": args.rate_hz,
+    built = ", ".join(f"N = {k}: {v:.0f} s" for k, v in setup_s.items())
+    lines += ["", f"Modal model (statics, tables, compile): {built}."]
+    write_results(name, {"segments": models, "record_segments": n_rec, "rate_hz": args.rate_hz,
                          "damping_ratio": ZETA, "initial_displacement_m_rad": Q0.tolist(),
                          "impulse_velocity_m_s": V0.tolist(), "cells": cells}, "\n".join(lines))
 
