@@ -74,7 +74,9 @@ it, one held at nominal by the spread's, so half a prior scale is where fitting 
 Measured against an independent maximum-likelihood fit of the same points, every parameter free
 (``benchmarks/tracker_points_ml.py``, 20 seeds per family): the RMS validation control error is
 0.84–1.01× the reference's per component on the Rubin camera hexapod, whose χ² ends lower by about
-the number of held directions (what fitting them to noise gives). The pose route keeps one prior
+the number of held directions (what fitting them to noise gives). At one and two prior scales
+(``calibrate_points(determined_std=...)``) the library is closer to that reference and its
+parameters further from the truth, and no more accurate in mean square. The pose route keeps one prior
 scale (:data:`~stewart_jax.calibration._determined.DETERMINED_STD`): it has not been measured
 against such a reference at half."""
 _READING_ATOL = 1e-9
