@@ -187,7 +187,8 @@ def _discretisation_note(partial: list[dict], duration_s: float, segments: int) 
     return [f"note: the lumped model's frequencies move with its segments (O(1/N²)): over a record of "
             f"{duration_s:.0f} s a model with other segments than the cables' leaves part of the gap; diagnose "
             f"again with --segments (now {segments}) set to the cables' discretisation; for real, continuous "
-            "cables 40 (it named a 200 s record of 80-segment cables that 20 missed)"]
+            "cables at least 40 (over 200 s of 80-segment cables, 40 named a release from equilibrium that 20 "
+            "missed, but not a release from rest, whose cables ring near 1 Hz)"]
 
 
 def _say(text: str) -> None:

@@ -130,7 +130,9 @@ tens of periods a shift of 0.1 % is a fifth of a radian of phase: a 200 s record
 N = 40 segments (1 mm of noise) is only partly explained by the model with N = 20 (44 % of the
 gap, μ = 0.98), where the model with the record's own N closes it (μ = 0.9999). The model's N
 must match the cables' discretisation, or exceed what the record's length resolves: a 200 s
-record of 80-segment cables, near the continuous limit, is named by N = 40 and missed by N = 20."""
+record of 80-segment cables, near the continuous limit, released from equilibrium is named by
+N = 40 and missed by N = 20; released from rest (its cables ring near 1 Hz, where the
+discretisation errs most) it is missed by both."""
 
 
 class CabinRecordData(NamedTuple):
