@@ -26,6 +26,7 @@ cell (an interrupted run keeps what it has).
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import resource
 import sys
@@ -96,7 +97,7 @@ def main() -> None:
         for duration in durations:
             keep = dec.time <= duration + 1e-9
             part = dec._replace(time=dec.time[keep], cabin=dec.cabin[keep])
-            for sigma, n_model in ((s_, m_) for s_ in noises for m_ in models):
+            for sigma, n_model in itertools.product(noises, models):
                 runs = []
                 for s in range(args.seeds):
                     data = read_cabin_record(part.sample(args.rate_hz, sigma_mm=sigma, sigma_deg=0.01 * sigma, seed=s))
@@ -119,8 +120,7 @@ def main() -> None:
                                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024})
                 target = None if release == "none" else "cable_inertia"
                 cell = {"release": release, "duration_s": duration, "sigma_mm": sigma, "model_segments": n_model,
-                        "runs": runs,
-                        "simulation_s": sim_s,
+                        "runs": runs, "simulation_s": sim_s,
                         "named_right": sum(r["named"] == target for r in runs),
                         "named_wrong": sum(r["named"] not in (target, None) for r in runs)}
                 cells.append(cell)
