@@ -28,6 +28,13 @@ The **mass share** μ scales the inertia of every cable node (their weight, and 
 statics, are unchanged): ``M_a + Gᵀ M_n G → μ (…)``, the coupling ``→ μ Gᵀ M_n Ψ``, the node
 block ``→ μ I``. μ = 0 is the quasi-static model, μ = 1 the lumped-mass model.
 
+The **continuum share** γ carries the cables' blocks from N segments towards continuous cables:
+``M_a + Gᵀ M_n G``, ``Gᵀ M_n Ψ``, ``Ω²`` and ``K_s`` are each ``X_N + γ ΔX``, with ``ΔX`` Richardson's
+extrapolation from the same blocks at 2N (:mod:`._cable_continuum`). γ = 0 is the lumped model
+at N, γ = 3/4 the lumped model at 2N and γ = 1 continuous cables, each to ``O(1/N⁴)``: a record
+of real cables, or of a simulator with other segments, is described by the model at N with
+the γ the fit finds.
+
 NOTE (μ = 0 and the cabin's stiffness): the cabin block's stiffness is ``K + μ (K_s − K)``: the
 catenaries' ``K`` at μ = 0, the lumped model's own ``K_s`` at μ = 1. The two differ by the
 lumped statics' discretisation error, ``O(1/N²)`` (0.25–1 % in frequency at N = 10–6); without
@@ -80,7 +87,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._lumped import lumped_modes
+from ._cable_continuum import ContinuumChange, as_arrays, continuum_change, craig_bampton
+from ._lumped import MAX_SEGMENTS
 from ._modes import cabin_mass_matrix, cabin_stiffness
 from ._statics import static_equilibrium
 from ._system import FastParams, check_position
@@ -106,6 +114,11 @@ class CabinVariation(NamedTuple):
       ``(1 − β)`` × the quasi-static shape and velocity of the cabin's initial displacement and
       velocity (0: released from a static offset, the cables in equilibrium with the cabin held
       by a load; 1: the cables at rest in the static pose, as after an impulse on the cabin).
+
+    - ``continuum``: γ, how near continuous the cables are: the cables' blocks are those at N
+      segments plus γ × their extrapolation to continuous cables (0: the lumped model at N;
+      1: continuous cables; γ stands for ``N / √(1 − γ)`` segments,
+      :mod:`._cable_continuum`).
     """
 
     cable_mass_share: Float[ArrayLike, ""] = 0.0
@@ -113,6 +126,7 @@ class CabinVariation(NamedTuple):
     mass_change: Float[ArrayLike, ""] = 0.0
     damping_change: Float[ArrayLike, "3"] = (0.0, 0.0, 0.0)
     node_lag: Float[ArrayLike, ""] = 0.0
+    continuum: Float[ArrayLike, ""] = 0.0
 
 
 class CabinModalModel(eqx.Module):
@@ -125,8 +139,11 @@ class CabinModalModel(eqx.Module):
       ``K(κ) − K`` and ``K(κ_m) − K`` on ``ea_range``/``mass_range``.
     - ``added_mass``: ``Float[Array, "6 6"]``, ``M_a + Gᵀ M_n G`` (kg, kg·m, kg·m²).
     - ``coupling``: ``Float[Array, "6 n"]``, ``Gᵀ M_n Ψ``; ``string_omega2``:
-      ``Float[Array, "n"]``, ``Ω²`` (rad²/s²): the ``n = 18 (N − 1)`` fixed-interface modes.
+      ``Float[Array, "n"]``, ``Ω²`` (rad²/s²): the ``n = 18 (N − 1)`` fixed-interface modes,
+      cable by cable.
     - ``lumped_stiffness_change``: ``Float[Array, "6 6"]``, ``K_s − K``.
+    - ``continuum``: :class:`~._cable_continuum.ContinuumChange`, the changes that carry the
+      added mass, ``coupling``, ``string_omega2`` and ``K_s`` to continuous cables.
     - ``segments``, ``ea_range``, ``mass_range``: static.
     """
 
@@ -140,6 +157,7 @@ class CabinModalModel(eqx.Module):
     coupling: Float[Array, "6 n"]
     string_omega2: Float[Array, " n"]
     lumped_stiffness_change: Float[Array, "6 6"]
+    continuum: ContinuumChange
     segments: int = eqx.field(static=True)
     ea_range: tuple[float, float] = eqx.field(static=True)
     mass_range: tuple[float, float] = eqx.field(static=True)
@@ -235,28 +253,39 @@ def cabin_modal_model(
     from ._statics import StaticSolution
 
     static = StaticSolution(s0, force, jnp.zeros((6, 2)), jnp.asarray(True), jnp.zeros(24))
-    lm = lumped_modes(params, pos, n_segments, R, static)
-    Kf, Mf = np.asarray(lm.stiffness), np.asarray(lm.mass)
-    Kcn, Knn = Kf[:6, 6:], Kf[6:, 6:]
-    G = -np.linalg.solve(Knn, Kcn.T)
-    Ks = Kf[:6, :6] + Kcn @ G
-    Ks = 0.5 * (Ks + Ks.T)
-    mn = np.diag(Mf)[6:]
-    Ma = Mf[:6, :6] - np.asarray(cabin_mass_matrix(params, lm.statics.R))
-    d = 1.0 / np.sqrt(mn)
-    w2, V = np.linalg.eigh(d[:, None] * Knn * d[None, :])
-    Psi = d[:, None] * V
+    levels = tuple(craig_bampton(params, pos, R, static, f * n_segments) for f in (1, 2, 4)
+                   if f == 1 or f * n_segments <= MAX_SEGMENTS)
+    coarse, change = levels[0], continuum_change(levels)
     return CabinModalModel(
         position=pos, R=R, mass=jnp.asarray(M), stiffness=jnp.asarray(K0),
         ea_coef=jnp.asarray(_chebyshev_table(params, pos, R, K0, *ea_range, "ea")),
         mass_coef=jnp.asarray(_chebyshev_table(params, pos, R, K0, *mass_range, "mass")),
-        added_mass=jnp.asarray(Ma + G.T @ (mn[:, None] * G)),
-        coupling=jnp.asarray(G.T @ (mn[:, None] * Psi)),
-        string_omega2=jnp.asarray(w2),
-        lumped_stiffness_change=jnp.asarray(Ks - K0),
+        added_mass=jnp.asarray(coarse.added_mass), coupling=jnp.asarray(coarse.coupling),
+        string_omega2=jnp.asarray(coarse.omega2), lumped_stiffness_change=jnp.asarray(coarse.stiffness - K0),
+        continuum=as_arrays(change),
         segments=int(n_segments), ea_range=(float(ea_range[0]), float(ea_range[1])),
         mass_range=(float(mass_range[0]), float(mass_range[1])),
     )
+
+
+class CableBlocks(NamedTuple):
+    """The cables' blocks at a continuum share (:func:`cable_blocks`): ``added_mass`` (6 × 6),
+    ``coupling`` (6 × n), ``omega2`` (n) and ``stiffness_change`` (6 × 6, ``K_s − K``)."""
+
+    added_mass: Float[Array, "6 6"]
+    coupling: Float[Array, "6 n"]
+    omega2: Float[Array, " n"]
+    stiffness_change: Float[Array, "6 6"]
+
+
+def cable_blocks(model: CabinModalModel, continuum) -> CableBlocks:
+    """The cables' blocks at the continuum share γ = ``continuum`` (the model's own at 0; the
+    added mass as in :class:`~._cable_continuum.ContinuumChange`'s NOTE)."""
+    g = jnp.asarray(continuum, jnp.float64)
+    c = model.continuum
+    coupling = model.coupling + g * c.coupling
+    return CableBlocks(model.added_mass + g * c.added_mass, coupling, model.string_omega2 + g * c.omega2,
+                       model.lumped_stiffness_change + g * c.stiffness)
 
 
 def cabin_matrices(model: CabinModalModel, variation: CabinVariation) -> tuple[Array, Array]:
@@ -266,12 +295,13 @@ def cabin_matrices(model: CabinModalModel, variation: CabinVariation) -> tuple[A
     ea = jnp.asarray(variation.ea_change, jnp.float64)
     km = jnp.asarray(variation.mass_change, jnp.float64)
     mu_p = jnp.maximum(mu, MU_FLOOR)
+    cables = cable_blocks(model, variation.continuum)
     Kc = (model.stiffness + _chebyshev_eval(model.ea_coef, *model.ea_range, ea)
-          + _chebyshev_eval(model.mass_coef, *model.mass_range, km) + mu * model.lumped_stiffness_change)
-    Mc = (1.0 + km) * model.mass + mu * model.added_mass
-    n = model.string_omega2.shape[0]
-    B = jnp.sqrt(mu_p) * model.coupling
-    K = jnp.zeros((6 + n, 6 + n)).at[:6, :6].set(Kc).at[6:, 6:].set(jnp.diag(model.string_omega2 / mu_p))
+          + _chebyshev_eval(model.mass_coef, *model.mass_range, km) + mu * cables.stiffness_change)
+    Mc = (1.0 + km) * model.mass + mu * cables.added_mass
+    n = cables.omega2.shape[0]
+    B = jnp.sqrt(mu_p) * cables.coupling
+    K = jnp.zeros((6 + n, 6 + n)).at[:6, :6].set(Kc).at[6:, 6:].set(jnp.diag(cables.omega2 / mu_p))
     M = jnp.zeros((6 + n, 6 + n)).at[:6, :6].set(Mc).at[:6, 6:].set(B).at[6:, :6].set(B.T)
     M = M.at[6:, 6:].set(jnp.eye(n))
     return 0.5 * (K + K.T), 0.5 * (M + M.T)
@@ -344,7 +374,8 @@ def free_response(
     # NOTE (node state): the nodes x_n = G q + Ψ p start at (1 − β) G q0, so p0 = −β Ψᵀ M_n G q0
     # = −β (Gᵀ M_n Ψ)ᵀ q0, and r0 = √μ₊ p0 in the scaled coordinates (likewise the velocity).
     mu_p = jnp.maximum(jnp.asarray(variation.cable_mass_share, jnp.float64), MU_FLOOR)
-    lag = -jnp.asarray(variation.node_lag, jnp.float64) * jnp.sqrt(mu_p) * model.coupling.T
+    coupling = cable_blocks(model, variation.continuum).coupling
+    lag = -jnp.asarray(variation.node_lag, jnp.float64) * jnp.sqrt(mu_p) * coupling.T
     q0 = jnp.asarray(q0, jnp.float64)
     v0 = jnp.asarray(v0, jnp.float64)
     PM = modes.shapes.T @ modes.mass
