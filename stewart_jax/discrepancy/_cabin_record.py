@@ -17,9 +17,12 @@ one damping ratio ``ζ`` for every mode, and a constant offset (mm, mrad) of the
 
 The effects (registered under ``"fast-cabin"``; θ = 0 is the base model):
 
-- ``cable_inertia`` (μ): the share of the cables' mass that moves with them — the lumped-mass
-  cables (MoorDyn's discretisation) reduced exactly to the cabin and the cables' fixed-interface
-  modes; μ = 1 is the lumped model, μ = 0 the paper's quasi-static cables.
+- ``cable_inertia`` (μ, β, γ): the share μ of the cables' mass that moves with them — the
+  lumped-mass cables (MoorDyn's discretisation) reduced exactly to the cabin and the cables'
+  fixed-interface modes; μ = 1 is the lumped model, μ = 0 the paper's quasi-static cables —,
+  the lag β of the cables' nodes at the record's start (0: in equilibrium with the displaced
+  cabin; 1: at rest), and the continuum share γ of their discretisation (0: the model's N
+  segments; 1: continuous cables, :mod:`~stewart_jax.cable_robot._cable_continuum`).
 - ``cable_stiffness`` (κ, %): the cables' EA is ``(1 + κ)`` × the paper's, the statics solved
   again at the same position (the winches hold the cabin where it is).
 - ``cabin_mass`` (κ_m, %): every mass and inertia of the cabin assembly (cabin, platforms,
@@ -34,10 +37,10 @@ length. The model instead reads the record's own modes first (the multi-channel 
 :mod:`stewart_jax.cable_robot._pencil`, on the record whitened by the tracker's noise; linear in
 its length) and offers the workflow, per effect that changes frequencies, the few values at
 which the model's modes that move the cabin match those frequencies best
-(:meth:`CabinRecordModel.effect_grid`, :func:`frequency_starts`): a cheap first screen on the
-cabin's six modes with the cables' added mass (the rigid-cabin correction), refined on the full
-reduced model with its string modes. The physical fit then starts within a fraction of a
-phase step of the record's frequencies, however long the record.
+(:meth:`CabinRecordModel.effect_grid`, :func:`~._cabin_starts.frequency_starts`): for
+``cable_inertia`` the pairs (μ, γ) of the full reduced model with its string modes, for the
+others the cabin's six modes. The physical fit then starts within a fraction of a phase step of
+the record's frequencies, however long the record.
 
 NOTE (record length): the model's time and memory are linear in the record's length (the modes
 are summed in blocks, :data:`~stewart_jax.cable_robot._cabin_modal.TIME_CHUNK`); a record whose
@@ -52,7 +55,6 @@ import os
 from typing import ClassVar, NamedTuple
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -62,13 +64,12 @@ from ..cable_robot._cabin_modal import (
     DAMPING_GROUPS,
     CabinModalModel,
     CabinVariation,
-    cabin_matrices,
     cabin_modal_model,
     cabin_modal_modes,
     free_response,
 )
 from ..cable_robot._free_decay import RECORD_COLUMNS, CabinRecord, check_record
-from ..cable_robot._pencil import record_modes
+from ._cabin_starts import GRID_PARAMS, MASS_SHARE_RANGE, SECOND_STARTS, frequency_starts, record_frequencies
 from ._registry import AbstractDiscrepancyModel, Effect, register_effect
 
 MODEL_NAME = "fast-cabin"
@@ -80,26 +81,6 @@ damping ratio, the constant offset of the measured pose (mm, mrad)."""
 DAMPING_START = 0.005
 """The damping ratio the base fit starts from (FAST's cabin: ≥ 0.004, Li, Sun, Li, Yao, Universe
 10(12):450, 2024)."""
-MASS_SHARE_RANGE = (0.0, 1.5)
-"""Range of the ``cable_inertia`` starting values (the share of the cables' mass that moves)."""
-MAX_STARTS = 4
-"""Most starting values per effect (:func:`frequency_starts`), whatever the record's length."""
-SECOND_STARTS = {"cable_inertia": (0.0, 1.0)}
-"""Starting values of an effect's second parameter, each paired with every start of its first:
-the cables' node lag of a release with the cables in equilibrium (0) and at rest (1). The record's
-modes set the share μ, not the lag; from a lag of 0 alone, two 20 s records of cables released at
-rest fitted another minimum (μ 0.16 and 0.0) and were not named."""
-SCAN_POINTS = 301
-"""Values of ``cable_stiffness`` and ``cabin_mass`` at which the model's six frequencies are
-compared with the record's."""
-INERTIA_SCAN_POINTS = 61
-"""Values of ``cable_inertia`` at which the full reduced model's frequencies are compared with the
-record's (steps of 0.025 in μ: ~1 % in the swing frequency, a fifth of :data:`MATCH_CAP`)."""
-PENCIL_ORDER = 24
-"""Poles the matrix pencil fits to a record (12 modes: the cabin's six and string modes)."""
-MATCH_CAP = 0.05
-"""Largest relative frequency mismatch a record's mode adds to the matching cost (a mode the
-model has no counterpart for costs no more than this)."""
 BYTES_PER_SAMPLE = 60_000
 """Memory the workflow's fits take per sample of a record (bytes). An upper estimate: the
 whitened Jacobians of every unknown on the training and held-out rows, the whiteners and the
@@ -254,7 +235,7 @@ class CabinRecordModel(AbstractDiscrepancyModel):
 
     def initial_state(self, base, data: CabinRecordData, control: bool) -> CabinRecordState:
         z = jnp.zeros((), jnp.float64)
-        return CabinRecordState(base, CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z), z)
+        return CabinRecordState(base, CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z, z), z)
 
     def finish(self, state: CabinRecordState, data: CabinRecordData) -> Float[Array, "m 6"]:
         b = state.base
@@ -284,10 +265,12 @@ class CabinRecordModel(AbstractDiscrepancyModel):
         rows = [np.zeros(sum(e.n_params for e in effects))]
         off = 0
         for e in effects:
+            which = GRID_PARAMS.get(e.name, (0,))
             for v in grids.get(e.name, ()):
                 for second in SECOND_STARTS.get(e.name, (0.0,)):
                     row = np.zeros_like(rows[0])
-                    row[off] = v / e.scale[0]
+                    for i, x in zip(which, np.atleast_1d(v), strict=True):
+                        row[off + i] = x / e.scale[i]
                     if second:
                         row[off + 1] = second / e.scale[1]
                     rows.append(row)
@@ -301,100 +284,6 @@ class CabinRecordModel(AbstractDiscrepancyModel):
             if e.name != "discovered":  # the open search's terms add to the measured pose, not to the modes
                 state = e(jnp.asarray(t), None, state)
         return state.variation
-
-
-def _six_frequencies(modal: CabinModalModel, which: str, x: float) -> np.ndarray:
-    # The screen: the cabin's six modes with the cables' added mass (no string modes), numpy.
-    K, M = np.asarray(modal.stiffness), np.asarray(modal.mass)
-    if which == "cable_inertia":
-        K = K + x * np.asarray(modal.lumped_stiffness_change)
-        M = M + x * np.asarray(modal.added_mass)
-    elif which == "cable_stiffness":
-        lo, hi = modal.ea_range
-        K = K + np.polynomial.chebyshev.chebval((2 * x - lo - hi) / (hi - lo), np.asarray(modal.ea_coef))
-    else:
-        lo, hi = modal.mass_range
-        K = K + np.polynomial.chebyshev.chebval((2 * x - lo - hi) / (hi - lo), np.asarray(modal.mass_coef))
-        M = M * (1.0 + x)
-    lam = np.linalg.eigvals(np.linalg.solve(M, K)).real
-    return np.sqrt(np.sort(np.abs(lam))) / (2.0 * np.pi)
-
-
-_cabin_matrices_jit = jax.jit(cabin_matrices)
-
-
-def _full_frequencies(modal: CabinModalModel, which: str, x: float, cutoff_hz: float) -> np.ndarray:
-    # The reduced model with its string modes: the modes below the cutoff that move the cabin.
-    import scipy.linalg
-
-    field = {"cable_inertia": "cable_mass_share", "cable_stiffness": "ea_change", "cabin_mass": "mass_change"}[which]
-    z = jnp.zeros(())
-    var = CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z)._replace(**{field: jnp.asarray(float(x))})
-    K, M = (np.asarray(a) for a in _cabin_matrices_jit(modal, var))
-    lam, phi = scipy.linalg.eigh(K, M)
-    share = np.einsum("km,kl,lm->m", phi[:6], M[:6, :6], phi[:6])
-    f = np.sqrt(np.abs(lam)) / (2.0 * np.pi)
-    return f[(share >= 0.01) & (f < cutoff_hz)]
-
-
-def _mismatch(f_record: np.ndarray, weight: np.ndarray, f_model: np.ndarray) -> float:
-    if f_model.size == 0:
-        return MATCH_CAP**2
-    d = np.min(np.abs(np.log(f_record[:, None]) - np.log(f_model[None, :])), axis=1)
-    return float(np.sum(weight * np.minimum(d, MATCH_CAP) ** 2))
-
-
-def frequency_starts(modal: CabinModalModel, which: str, lo: float, hi: float, f_record: np.ndarray,
-                     weight: np.ndarray, cutoff_hz: float) -> tuple[float, ...]:
-    """The values of effect ``which`` in ``[lo, hi]`` at which the model's modes best match the
-    record's (``f_record``, Hz, with ``weight``s summing to 1): the local minima of the matching
-    cost (Σ weight · min(|ln f − ln f_model|, :data:`MATCH_CAP`)², each record mode against the
-    nearest model mode that moves the cabin) on a scan of the range, each refined by a bounded
-    scalar search between its neighbours; at most :data:`MAX_STARTS`, best first; 0 left out (the
-    row of zeros is always a start).
-
-    ``cable_stiffness`` and ``cabin_mass`` are scanned on the cabin's six modes
-    (:data:`SCAN_POINTS` values; exact for them: the string modes' share vanishes at μ = 0);
-    ``cable_inertia`` on the full reduced model with its string modes (:data:`INERTIA_SCAN_POINTS`):
-    the six-mode screen's Rayleigh added mass ignores the coupling to the string modes and puts
-    the lumped model's swing at μ ≈ 1.3, not 1."""
-    from scipy.optimize import minimize_scalar
-
-    if which == "cable_inertia":
-        def cost(x):
-            return _mismatch(f_record, weight, _full_frequencies(modal, which, x, cutoff_hz))
-        xs = np.linspace(lo, hi, INERTIA_SCAN_POINTS)
-    else:
-        def cost(x):
-            return _mismatch(f_record, weight, _six_frequencies(modal, which, x))
-        xs = np.linspace(lo, hi, SCAN_POINTS)
-    c = np.array([cost(x) for x in xs])
-    interior = np.r_[True, c[1:] <= c[:-1]] & np.r_[c[:-1] <= c[1:], True]
-    order = [int(i) for i in np.argsort(c) if interior[i]][:MAX_STARTS]
-    starts = []
-    for i in order:
-        a, b = xs[max(i - 1, 0)], xs[min(i + 1, len(xs) - 1)]
-        x = float(minimize_scalar(cost, bounds=(a, b), method="bounded", options={"xatol": 1e-4 * (hi - lo)}).x)
-        if abs(x) > 1e-6 and all(abs(x - y) > 1e-3 * (hi - lo) for y in starts):
-            starts.append(x)
-    return tuple(starts)
-
-
-def record_frequencies(data: CabinRecordData, modal: CabinModalModel, sigma_mm: float,
-                       sigma_mrad: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """The record's modes (matrix pencil on the pose whitened by the noise σ): frequencies (Hz),
-    their weights (squared amplitudes, summing to 1) and the cutoff (1.5 × the quasi-static
-    model's highest mode, the most any effect's range raises it)."""
-    f_qs = np.asarray(cabin_modal_modes(modal, CabinVariation()).frequencies_hz)[:6]
-    cutoff = 1.5 * float(f_qs[-1])
-    t = np.asarray(data.time)
-    y = np.asarray(data.pose) / np.array([sigma_mm] * 3 + [sigma_mrad] * 3)
-    y = y - y.mean(axis=0)
-    pm = record_modes(y, float(np.median(np.diff(t))), cutoff, PENCIL_ORDER)
-    if pm.frequency_hz.size == 0:
-        return np.asarray([float(f_qs[0])]), np.ones(1), cutoff
-    w = pm.amplitude**2
-    return pm.frequency_hz, w / np.sum(w), cutoff
 
 
 def check_memory(n_samples: int, rate_hz: float) -> None:
@@ -520,18 +409,21 @@ def check_sampling(data: CabinRecordData, modal: CabinModalModel) -> list[str]:
 # ---------------------------------------------------------------------------- effects
 
 
-@register_effect(MODEL_NAME, "cable_inertia", n_params=2, scale=(0.3, 0.3),
-                 unit="share of the cables' mass; lag of the cables' nodes")
-def cable_inertia(theta: Float[Array, "2"], data, state: CabinRecordState) -> CabinRecordState:
+@register_effect(MODEL_NAME, "cable_inertia", n_params=3, scale=(0.3, 0.3, 0.3),
+                 unit="share of the cables' mass; lag of the cables' nodes; continuum share")
+def cable_inertia(theta: Float[Array, "3"], data, state: CabinRecordState) -> CabinRecordState:
     """The cables have mass that moves: lumped-mass cables (MoorDyn's discretisation, reduced
     exactly to the cabin and the cables' fixed-interface string modes), θ₀ the share μ of the
     cables' mass that moves (0: the paper's quasi-static cables; 1: the lumped-mass model), θ₁ the
     lag β of the cables' nodes at the record's start (0: in the quasi-static shape of the cabin's
     initial offset, released from a static offset under a load; 1: at rest in the static pose,
-    the cabin struck or displaced faster than the string modes follow)."""
+    the cabin struck or displaced faster than the string modes follow), θ₂ the continuum share γ
+    of the cables' discretisation (0: the model's N segments; 1: continuous cables; γ stands for
+    ``N/√(1 − γ)`` segments)."""
     v = state.variation
     return state._replace(variation=v._replace(cable_mass_share=v.cable_mass_share + theta[0],
-                                               node_lag=v.node_lag + theta[1]))
+                                               node_lag=v.node_lag + theta[1],
+                                               continuum=v.continuum + theta[2]))
 
 
 @register_effect(MODEL_NAME, "cable_stiffness", n_params=1, scale=0.1, unit="% of EA", report_factor=100.0)
