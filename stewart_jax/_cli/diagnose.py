@@ -171,7 +171,7 @@ def _cmd_diagnose_cabin(args: argparse.Namespace) -> int:
     skipped = "; ".join(f"{s.effect}: {s.reason}" for s in report.skipped)
     low = lambda m: f"{m['frequencies_hz'][0]:.4f} Hz" if m["frequencies_hz"] else "none"  # noqa: E731
     lines = report.summary() + [f"note: {n}" for n in model.notes]
-    lines += _discretisation_note(report.partial, model.duration_s, segments)
+    lines += _cables_line(report, segments) + _discretisation_note(report.partial, model.duration_s, segments)
     lines.append(f"lowest cabin mode {low(out['modes']['before'])} (quasi-static) → {low(out['modes']['after'])} "
                  "(augmented model); measured on FAST: 0.12–0.2 Hz")
     for line in lines + ([f"skipped {skipped}"] if skipped else []):
@@ -184,11 +184,24 @@ def _discretisation_note(partial: list[dict], duration_s: float, segments: int) 
     """The hint a partial ``cable_inertia`` calls for: the lumped model's discretisation."""
     if not any(p["effect"] == "cable_inertia" for p in partial):
         return []
-    return [f"note: the lumped model's frequencies move with its segments (O(1/N²)): over a record of "
-            f"{duration_s:.0f} s a model with other segments than the cables' leaves part of the gap; diagnose "
-            f"again with --segments (now {segments}) set to the cables' discretisation; for real, continuous "
-            "cables at least 40 (over 200 s of 80-segment cables, 40 named a release from equilibrium that 20 "
-            "missed, but not a release from rest, whose cables ring near 1 Hz)"]
+    return [f"note: the model's cables have {segments} segments, carried towards continuous cables by the fitted "
+            f"continuum share; over a record of {duration_s:.0f} s the cables' own modes near 1 Hz, which a "
+            f"release from rest or a blow rings, are resolved only with more segments: diagnose again with "
+            f"--segments (now {segments}) at 40 (a 200 s record of 80-segment cables released from rest was missed "
+            "at 20 and named at 40)"]
+
+
+def _cables_line(report, segments: int) -> list[str]:
+    """What the fitted ``cable_inertia`` says of the cables' discretisation (its continuum share γ)."""
+    from ..cable_robot._cable_continuum import segments_of
+
+    if report.named_effect != "cable_inertia" and not any(p["effect"] == "cable_inertia" for p in report.partial):
+        return []
+    gamma = float(next(c for c in report.ranking if c.effect == "cable_inertia").params[2])
+    n = segments_of(gamma, segments)
+    like = "continuous cables" if n == float("inf") or n > 50 * segments else f"≈ {n:.0f} segments per cable"
+    return [f"the cables' continuum share γ = {gamma:.2f}: the record's cables behave as {like} (the model's "
+            f"{segments} at γ = 0, continuous at γ = 1)"]
 
 
 def _say(text: str) -> None:
