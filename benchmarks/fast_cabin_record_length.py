@@ -113,6 +113,7 @@ def main() -> None:
                                  "partial": [p["effect"] for p in rep.partial],
                                  "discovered": [t["description"] for t in rep.discovered],
                                  "mass_share": ci.params[0], "node_lag": ci.params[1],
+                                 "continuum": ci.params[2],
                                  "starts": {k: list(v) for k, v in model.grids},
                                  "gap_before_um_urad": rep.gap_before, "gap_after_um_urad": rep.gap_after,
                                  "noise_floor_um_urad": rep.noise_floor,
@@ -140,12 +141,14 @@ def _write(name, cells, args, n_rec, models, setup_s) -> None:
         f"{args.rate_hz:g} Hz; {args.seeds} noise seed(s) per cell, rotation noise 0.01° per mm. *right*: "
         "`cable_inertia` named on a lumped record, nothing on the quasi-static one (`none`); μ, β: the fitted share "
         "of the cables' mass and lag of their nodes (truth 1, and 0 for offset-equilibrium, 1 for offset-rest and "
-        "impulse); gaps: held-out RMS over the six coordinates (µm, µrad), median; time: `cabin_record_model` "
+        "impulse); γ: the fitted continuum share of the cables' discretisation (truth 1 − (N model / N record)², "
+        "the model at γ stands for N / √(1 − γ) segments); gaps: held-out RMS over the six coordinates (µm, µrad), "
+        "median; time: `cabin_record_model` "
         "(record's modes and starts) + `diagnose`, wall clock on the machine below, median.",
         "",
-        "| release | T (s) | samples | σ (mm) | N model | right | wrong | μ | β | gap before | gap after | floor "
+        "| release | T (s) | samples | σ (mm) | N model | right | wrong | μ | β | γ | gap before | gap after | floor "
         "| model (s) | diagnose (s) | peak RSS (MB) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for c in cells:
         r = c["runs"]
@@ -157,6 +160,7 @@ def _write(name, cells, args, n_rec, models, setup_s) -> None:
             f"| {c['release']} | {c['duration_s']:.0f} | {r[0]['samples']} | {c['sigma_mm']:g} | "
             f"{c['model_segments']} | "
             f"{c['named_right']}/{len(r)} | {c['named_wrong']} | {med('mass_share'):.3f} | {med('node_lag'):.2f} | "
+            f"{med('continuum'):.2f} | "
             f"{med('gap_before_um_urad'):.0f} | {med('gap_after_um_urad'):.0f} | {med('noise_floor_um_urad'):.0f} | "
             f"{med('model_s'):.0f} | {med('diagnose_s'):.0f} | {max(x['peak_rss_mb'] for x in r):.0f} |")
     built = ", ".join(f"N = {k}: {v:.0f} s" for k, v in setup_s.items())
