@@ -114,9 +114,9 @@ def test_a_record_too_long_for_memory_is_refused_with_the_longest_it_can_take(mo
 
 
 def test_diagnose_models_the_cables_as_fast_records_them():
-    # The model's N must match the record's cables (the lumped frequencies move as O(1/N²), a
-    # fifth of a radian over 200 s between N = 20 and 40): the default of diagnose's --segments is
-    # the default of the command that writes records.
+    # The default of diagnose's --segments is the default of the command that writes records:
+    # there the fitted continuum share is 0, and the model at its N is exact (the share carries it
+    # to other segments only to leading order in 1/N²).
     from stewart_jax._cli import build_parser
 
     choices = build_parser()._subparsers._group_actions[0].choices

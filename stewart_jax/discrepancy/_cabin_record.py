@@ -107,13 +107,14 @@ DEFAULT_SEGMENTS = 20
 ``stewart-jax diagnose --geometry fast``; the same as ``stewart-jax fast --free-decay``'s).
 
 NOTE: the lumped model's frequencies move as O(1/N²) with the segments, and over a record of
-tens of periods a shift of 0.1 % is a fifth of a radian of phase: a 200 s record from cables of
-N = 40 segments (1 mm of noise) is only partly explained by the model with N = 20 (44 % of the
-gap, μ = 0.98), where the model with the record's own N closes it (μ = 0.9999). The model's N
-must match the cables' discretisation, or exceed what the record's length resolves: a 200 s
-record of 80-segment cables, near the continuous limit, released from equilibrium is named by
-N = 40 and missed by N = 20; released from rest (its cables ring near 1 Hz, where the
-discretisation errs most) it is missed by both."""
+tens of periods a shift of 0.1 % is a fifth of a radian of phase. The continuum share γ of
+``cable_inertia`` carries the model at N to cables of other segments or to continuous ones
+(:mod:`~stewart_jax.cable_robot._cable_continuum`); at N = 20 that resolves the cabin's modes and
+the string modes below 0.9 Hz to within 200 ppm, but the cables' own modes near 1 Hz only to
+about 10⁻³. Measured on 200 s records of 80-segment cables (near continuous): released from
+equilibrium, named at N = 20 (γ = 0.94); released from rest, which rings those modes, missed at
+N = 20 and named at N = 40 (γ = 0.75). 20 is what ``fast --free-decay`` writes; records of real
+cables that ring their own modes need ``--segments 40``."""
 
 
 class CabinRecordData(NamedTuple):

@@ -153,8 +153,10 @@ def _inertia_starts(modal: CabinModalModel, lo: float, hi: float, f_record: np.n
     starts: list[tuple[float, float]] = []
     dm, dg = mus[1] - mus[0], gammas[1] - gammas[0]
     for flat in np.argsort(c, axis=None):
+        if len(starts) == MAX_STARTS:
+            break
         i, j = np.unravel_index(flat, c.shape)
-        if not interior[i, j] or abs(mus[i]) < 1e-6 or len(starts) == MAX_STARTS:
+        if not interior[i, j] or abs(mus[i]) < 1e-6:
             continue
         box = [(mus[i] - dm, mus[i] + dm), (gammas[j] - dg, gammas[j] + dg)]
         res = minimize(cost, np.array([mus[i], gammas[j]]), method="Nelder-Mead", bounds=box,
