@@ -185,8 +185,8 @@ def _discretisation_note(partial: list[dict], duration_s: float, segments: int) 
     if not any(p["effect"] == "cable_inertia" for p in partial):
         return []
     return [f"note: the model's cables have {segments} segments, carried towards continuous cables by the fitted "
-            f"continuum share; over a record of {duration_s:.0f} s the cables' own modes near 1 Hz, which a "
-            f"release from rest or a blow rings, are resolved only with more segments: diagnose again with "
+            f"continuum share; over a record of {duration_s:.0f} s that does not resolve every mode of real cables "
+            "(at 20 segments their string modes near 1 Hz stay about 1e-3 off): diagnose again with "
             f"--segments (now {segments}) at 40 (a 200 s record of 80-segment cables released from rest was missed "
             "at 20 and named at 40)"]
 

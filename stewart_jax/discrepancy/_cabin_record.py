@@ -112,9 +112,12 @@ tens of periods a shift of 0.1 % is a fifth of a radian of phase. The continuum 
 (:mod:`~stewart_jax.cable_robot._cable_continuum`); at N = 20 that resolves the cabin's modes and
 the string modes below 0.9 Hz to within 200 ppm, but the cables' own modes near 1 Hz only to
 about 10⁻³. Measured on 200 s records of 80-segment cables (near continuous): released from
-equilibrium, named at N = 20 (γ = 0.94); released from rest, which rings those modes, missed at
-N = 20 and named at N = 40 (γ = 0.75). 20 is what ``fast --free-decay`` writes; records of real
-cables that ring their own modes need ``--segments 40``."""
+rest, which rings those modes, missed at N = 20 and named at N = 40 (γ = 0.75); released from
+equilibrium, missed at N = 20 (the fit that won the starts' profiles began at γ = 0 and stayed
+there; an earlier version started only at the scan's γ and named it, γ = 0.94) and named at
+N = 40 (γ = 0.80). 20 is what
+``fast --free-decay`` writes, and its records are named at γ = 0.00; records of real cables need
+``--segments 40``."""
 
 
 class CabinRecordData(NamedTuple):
