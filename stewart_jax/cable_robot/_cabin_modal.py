@@ -30,10 +30,10 @@ block ``→ μ I``. μ = 0 is the quasi-static model, μ = 1 the lumped-mass mod
 
 The **continuum share** γ carries the cables' blocks from N segments towards continuous cables:
 ``M_a + Gᵀ M_n G``, ``Gᵀ M_n Ψ``, ``Ω²`` and ``K_s`` are each ``X_N + γ ΔX``, with ``ΔX`` Richardson's
-extrapolation from the same blocks at 2N (:mod:`._cable_continuum`). γ = 0 is the lumped model
-at N, γ = 3/4 the lumped model at 2N and γ = 1 continuous cables, each to ``O(1/N⁴)``: a record
-of real cables, or of a simulator with other segments, is described by the model at N with
-the γ the fit finds.
+extrapolation from the same blocks at 2N and 4N (:mod:`._cable_continuum`). γ = 0 is the lumped
+model at N, γ = 1 continuous cables (to ``O(1/N⁶)``), and ``γ = 1 − (N/N′)²`` the lumped model
+at N′ to leading order: a record of real cables, or of a simulator with other segments, is
+described by the model at N with the γ the fit finds.
 
 NOTE (μ = 0 and the cabin's stiffness): the cabin block's stiffness is ``K + μ (K_s − K)``: the
 catenaries' ``K`` at μ = 0, the lumped model's own ``K_s`` at μ = 1. The two differ by the

@@ -5,20 +5,22 @@ cables (Richardson L. F., *The deferred approach to the limit*, Phil. Trans. R. 
 A lumped-mass chain of N segments errs by ``O(1/N²)`` in every quantity the cabin's motion
 sees: the fixed-interface frequencies ``Ω_k`` (a taut string's k-th by the factor
 ``sin(kπ/2N)/(kπ/2N)``), their coupling to the cabin ``b_k = Gᵀ M_n ψ_k``, the added mass
-``M_a + Gᵀ M_n G`` and the static stiffness ``K_s``. With the same blocks at 2N, Richardson's
-step ``X_∞ ≈ X_2N + (X_2N − X_N)/3`` removes that term: the change ``ΔX = 4/3 (X_2N − X_N)``
-carries the model at N to continuous cables, and ``X_N + γ ΔX`` is, to the same order, the model
-of cables with ``N' = N / √(1 − γ)`` segments (γ = 0: N; γ = 3/4: 2N; γ = 1: continuous).
+``M_a + Gᵀ M_n G`` and the static stiffness ``K_s``. With the same blocks at 2N and 4N,
+Richardson's two steps remove the ``1/N²`` and ``1/N⁴`` terms (:data:`RICHARDSON`):
+``ΔX = (64 X_4N − 20 X_2N − 44 X_N)/45`` carries the model at N to continuous cables, and
+``X_N + γ ΔX`` is, to leading order, the model of cables with ``N' = N / √(1 − γ)`` segments
+(γ = 0: N; γ = 3/4: 2N; γ = 1: continuous). With 4N beyond the segments' cap one step is taken
+(``ΔX = 4/3 (X_2N − X_N)``).
 
 NOTE (matching modes): ``Ω_k`` and ``b_k`` are extrapolated mode by mode, so the fixed-interface
 modes are taken cable by cable (the cables are independent with the cabin held; six cables of a
 symmetric pose have equal spectra, and a joint eigenbasis would mix them arbitrarily). Within a
 cable, each mode at N is paired with the mode at 2N whose shape, sampled at the N chain's nodes
-(the 2N chain's even nodes), is most nearly parallel (an assignment, not the sorted order: two
-families of string modes shift by different amounts and may cross). A mode is extrapolated only
-where the pair is unambiguous (``|cos| ≥`` :data:`MATCH_COS`) and resolved (its ``Ω²`` moves by
-less than :data:`RESOLVED_CHANGE` between N and 2N); the others, far above the cabin's modes,
-keep the N chain's values.
+(the 2N chain's even nodes), is most nearly parallel, and that one likewise with a mode at 4N
+(an assignment, not the sorted order: two families of string modes shift by different amounts
+and may cross). A mode is extrapolated only where each pair is unambiguous (``|cos| ≥``
+:data:`MATCH_COS`) and resolved (its ``Ω²`` moves by less than :data:`RESOLVED_CHANGE` between
+N and 2N); the others, far above the cabin's modes, keep the N chain's values.
 """
 
 from __future__ import annotations
