@@ -114,8 +114,8 @@ the string modes below 0.9 Hz to within 200 ppm, but the cables' own modes near 
 about 10⁻³. Measured on 200 s records of 80-segment cables (near continuous): released from
 rest, which rings those modes, missed at N = 20 and named at N = 40 (γ = 0.75); released from
 equilibrium, missed at N = 20 (the fit that won the starts' profiles began at γ = 0 and stayed
-there; an earlier version started only at the scan's γ and named it, γ = 0.94) and named at
-N = 40 (γ = 0.80). 20 is what
+there; a first version, with one Richardson step and no start at γ = 0, named it, γ = 0.94)
+and named at N = 40 (γ = 0.80). 20 is what
 ``fast --free-decay`` writes, and its records are named at γ = 0.00; records of real cables need
 ``--segments 40``."""
 
