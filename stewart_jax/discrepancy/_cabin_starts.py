@@ -72,15 +72,12 @@ def _six_frequencies(modal: CabinModalModel, which: str, x: float) -> np.ndarray
 _cabin_matrices_jit = jax.jit(cabin_matrices)
 
 
-def _full_frequencies(modal: CabinModalModel, which: str, x: float, cutoff_hz: float,
-                      continuum: float = 0.0) -> np.ndarray:
-    # The reduced model with its string modes: the modes below the cutoff that move the cabin.
+def _full_frequencies(modal: CabinModalModel, mass_share: float, continuum: float, cutoff_hz: float) -> np.ndarray:
+    # The reduced model with its string modes at (μ, γ): the modes below the cutoff that move the cabin.
     import scipy.linalg
 
-    field = {"cable_inertia": "cable_mass_share", "cable_stiffness": "ea_change", "cabin_mass": "mass_change"}[which]
-    z = jnp.zeros(())
-    var = CabinVariation(z, z, z, jnp.zeros(len(DAMPING_GROUPS)), z, jnp.asarray(float(continuum)))
-    var = var._replace(**{field: jnp.asarray(float(x))})
+    var = CabinVariation(cable_mass_share=jnp.asarray(float(mass_share)), damping_change=jnp.zeros(len(DAMPING_GROUPS)),
+                         continuum=jnp.asarray(float(continuum)))
     K, M = (np.asarray(a) for a in _cabin_matrices_jit(modal, var))
     try:
         lam, phi = scipy.linalg.eigh(K, M)
@@ -142,7 +139,7 @@ def _inertia_starts(modal: CabinModalModel, lo: float, hi: float, f_record: np.n
     from scipy.optimize import minimize
 
     def cost(x):
-        return _mismatch(f_record, weight, _full_frequencies(modal, "cable_inertia", x[0], cutoff_hz, x[1]))
+        return _mismatch(f_record, weight, _full_frequencies(modal, x[0], x[1], cutoff_hz))
     mus = np.linspace(lo, hi, INERTIA_SCAN_POINTS)
     gammas = np.linspace(*CONTINUUM_RANGE, CONTINUUM_SCAN_POINTS)
     c = np.array([[cost((mu, g)) for g in gammas] for mu in mus])
